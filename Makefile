@@ -1,0 +1,35 @@
+# cpgjax: `make run` (short evolution of the quadruped) and `make test` (the suite).
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: run test lint bench setup clean
+
+$(STAMP): pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e ".[dev]"
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/cpgjax evolve models/quadruped.wl --population 20 --generations 10 --time 5 --pocket 4 \
+		--seed 0 --out runs/quickstart.h5 --overwrite
+	$(BIN)/cpgjax plot runs/quickstart.h5 --out runs/quickstart.png
+	$(BIN)/cpgjax best runs/quickstart.h5 --ctl runs/quickstart-best.ctl
+	@echo "fitness plot: runs/quickstart.png   best controller: runs/quickstart-best.ctl"
+	@echo "replay it:    $(BIN)/cpgjax simulate models/quadruped.wl --ctl runs/quickstart-best.ctl"
+
+lint: $(STAMP)
+	$(BIN)/ruff check cpgjax tests
+
+test: $(STAMP) lint
+	$(BIN)/python -m pytest -q -m "not slow"
+
+bench: $(STAMP)
+	$(BIN)/cpgjax bench
+
+clean:
+	rm -rf $(VENV) build *.egg-info

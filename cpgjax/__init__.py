@@ -1,0 +1,7 @@
+"""cpgjax: genetically evolved CPG control for quadruped walking, after G. Grasso (2000)."""
+
+from cpgjax import _xla
+
+_xla.configure()
+
+__version__ = "0.1.0"

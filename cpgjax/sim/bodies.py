@@ -1,0 +1,33 @@
+"""Free rigid bodies: Newton-Euler about the CM (eq. 3.5) and semi-implicit Euler.
+
+Each body has 6 DOF.  With forces F and torques tau (world frame) about the CM:
+``m dv/dt = F + m g`` and, in the body frame, ``I dw_b/dt = tau_b - w_b x (I w_b)``
+(the gyroscopic term of eq. 3.1).  Velocities are updated first, then positions with
+the new velocities (semi-implicit, symplectic Euler); orientations are unit quaternions.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from cpgjax.sim.rotation import cross, matTvec, matvec, quat_integrate
+
+
+def accelerations(model, R, w, force, torque):
+    """Linear and angular accelerations [3, nb, B] of the free bodies (fixed bodies: zero)."""
+    free = (~model.fixed).astype(float)[:, None]
+    a = force / model.mass[:, None]
+    a = a.at[2].add(-model.gravity)
+    wb = matTvec(R, w)
+    tb = matTvec(R, torque)
+    I = model.inertia[:, :, :, None]
+    Iinv = model.inv_inertia[:, :, :, None]
+    alpha_b = matvec(Iinv, tb - cross(wb, matvec(I, wb)))
+    return a * free, matvec(R, alpha_b) * free
+
+
+def integrate(state, a, alpha, dt):
+    """Semi-implicit Euler: v, w first, then x, q with the new velocities."""
+    v = state.v + dt * a
+    w = state.w + dt * alpha
+    return state._replace(x=state.x + dt * v, v=v, w=w, q=quat_integrate(state.q, w, dt))

@@ -1,0 +1,326 @@
+"""The static model: a `.wl` Description turned into fixed-size arrays (thesis Ch. 3.3-3.5).
+
+A :class:`Model` is frozen: shapes, masses, inertias, contact vertices, pivot springs,
+joints, servo gains and the terrain.  It is a plain Python object holding numpy arrays;
+jitted functions close over it, so its arrays become compile-time constants.
+
+Every rigid body is free (6 DOF).  A body is an Object or a Compound (objects welded
+together: masses and inertias combined about the common centre of mass).  Body
+frames are the description frames (an object's centre, a compound's Position); the
+state holds the centre of mass (CM) position and the frame's orientation, and all
+local points are stored relative to the CM.
+
+Every revolute joint becomes two pivot springs (eq. 3.6) placed at the pivot
+``+- width/2`` along the joint axis: together they hold the pivot and the axis, and
+leave the rotation about the axis free.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cpgjax.description import Description, DescriptionError, ObjectDef
+from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
+from cpgjax.sim.terrain import Terrain, make_terrain
+
+# Defaults chosen by the time-step study (docs/simulator.md).
+DEFAULT_DT = 5.0e-4
+DEFAULT_ALPHA = 1.0e5  # N/m   joint pivot spring (eq. 3.6)
+DEFAULT_BETA = 200.0  # N s/m joint pivot damper (eq. 3.6)
+AXIS_WIDTH = 0.04  # m: distance between the two pivot springs of a revolute joint
+LIMIT_STIFFNESS = 300.0  # N m / rad beyond a joint limit
+LIMIT_DAMPING = 3.0  # N m s / rad beyond a joint limit
+AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
+REFS = {"X": np.array([0.0, 1.0, 0.0]), "Y": np.array([0.0, 0.0, 1.0]), "Z": np.array([1.0, 0.0, 0.0])}
+
+
+@dataclass(eq=False)
+class Model:
+    """Frozen arrays of one robot and its world (hashable by identity)."""
+
+    # bodies [nb]
+    body_names: tuple[str, ...]
+    mass: np.ndarray  # [nb]
+    inertia: np.ndarray  # [3, 3, nb] about the CM, body frame
+    inv_inertia: np.ndarray  # [3, 3, nb]
+    fixed: np.ndarray  # [nb] bool
+    x0: np.ndarray  # [3, nb] initial CM positions
+    q0: np.ndarray  # [4, nb] initial orientations (w, x, y, z)
+    cm_local: np.ndarray  # [3, nb] CM in the body's description frame
+    # points on bodies (pivot-spring ends and contact vertices) [npt]
+    pt_body: np.ndarray  # [npt] int
+    pt_local: np.ndarray  # [3, npt] relative to the CM, body frame
+    # pivot springs [ns]: pairs of point indices
+    sp_a: np.ndarray
+    sp_b: np.ndarray
+    sp_inv_meff: np.ndarray  # [ns] conservative 1/effective mass (mass-split), for the implicit damper
+    # contacts [nc]: point indices
+    ct_pt: np.ndarray
+    ct_inv_meff: np.ndarray  # [nc]
+    # joints [nj]
+    joint_names: tuple[str, ...]
+    j_a: np.ndarray  # [nj] body index
+    j_b: np.ndarray
+    j_axis: np.ndarray  # [3, nj] local axis (same in both bodies' frames)
+    j_ref: np.ndarray  # [3, nj] local reference vector, perpendicular to the axis
+    j_lo: np.ndarray  # [nj] (-inf when no limit)
+    j_hi: np.ndarray
+    j_ctrl: np.ndarray  # [nj] index of the controlled DOF, -1 for passive joints
+    j_kp: np.ndarray
+    j_ki: np.ndarray
+    j_kd: np.ndarray
+    j_taumax: np.ndarray
+    j_q0: np.ndarray  # [nj] initial joint angles
+    ctrl_joint: np.ndarray  # [nctrl] joint index of each controlled DOF
+    # world
+    gravity: float
+    ground_A: float
+    ground_B: float
+    mu_static: float
+    mu_dynamic: float
+    alpha: float
+    beta: float
+    dt: float
+    terrain: Terrain
+    track: int  # body whose motion is scored and logged by default
+    time_max: float
+    log_rate: float
+    harmonics: int
+    frequency: float
+    description: Description | None = field(default=None, repr=False)
+    limit_k: float = LIMIT_STIFFNESS
+    limit_c: float = LIMIT_DAMPING
+
+    @property
+    def nb(self) -> int:
+        return len(self.body_names)
+
+    @property
+    def nj(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def n_ctrl(self) -> int:
+        return int(len(self.ctrl_joint))
+
+    @property
+    def n_coeff(self) -> int:
+        return 2 * self.harmonics + 1
+
+    @property
+    def n_genes(self) -> int:
+        return self.n_ctrl * self.n_coeff
+
+    @property
+    def total_mass(self) -> float:
+        return float(self.mass.sum())
+
+    def body_index(self, name: str) -> int:
+        return self.body_names.index(name)
+
+    def replace(self, **changes) -> Model:
+        """A copy with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``)."""
+        import dataclasses
+
+        return dataclasses.replace(self, **changes)
+
+
+# ----------------------------------------------------------------------------- shapes
+
+def object_inertia(obj: ObjectDef) -> np.ndarray:
+    """Inertia tensor of a homogeneous Cube / Cylinder (axis x) / Sphere about its centre."""
+    m, d = obj.mass, obj.dimensions
+    t = obj.type.lower()
+    if t == "cube":
+        dx, dy, dz = d
+        return m / 12.0 * np.diag([dy * dy + dz * dz, dx * dx + dz * dz, dx * dx + dy * dy])
+    if t == "cylinder":
+        r, length = d
+        axial = 0.5 * m * r * r
+        radial = m * (3 * r * r + length * length) / 12.0
+        return np.diag([axial, radial, radial])
+    if t == "sphere":
+        r = d[0]
+        return np.eye(3) * 0.4 * m * r * r
+    raise DescriptionError("<model>", obj.line, f"unknown Type {obj.type!r}")
+
+
+def object_contacts(obj: ObjectDef) -> np.ndarray:
+    """Contact vertices of an object in its own frame [k, 3]."""
+    if obj.contacts is not None:
+        return np.asarray(obj.contacts, dtype=float).reshape(-1, 3)
+    t = obj.type.lower()
+    d = obj.dimensions
+    if t == "cube":
+        hx, hy, hz = (0.5 * v for v in d)
+        return np.array([[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    if t == "cylinder":
+        r, length = d
+        n = obj.rim_points
+        a = 2 * np.pi * np.arange(n) / n
+        rims = [np.stack([np.full(n, s * length / 2), r * np.cos(a), r * np.sin(a)], 1) for s in (-1, 1)]
+        return np.concatenate(rims)
+    r = d[0]
+    return np.concatenate([np.eye(3) * r, -np.eye(3) * r])
+
+
+# ----------------------------------------------------------------------------- builder
+
+def build_model(desc: Description, *, dt: float | None = None, terrain: str | None = None) -> Model:
+    """Turn a Description into a Model.  ``terrain`` (CLI syntax) overrides the file's."""
+    path = desc.path
+    # -- bodies: root objects and compounds, in file order
+    in_compound = {o for c in desc.compounds.values() for o in c.objects}
+    entries = [(o.line, "object", o.name) for o in desc.objects.values() if o.name not in in_compound]
+    entries += [(c.line, "compound", c.name) for c in desc.compounds.values()]
+    entries.sort()
+    names, masses, inertias, cms, fixed, contacts_local, frame_pose = [], [], [], [], [], [], {}
+    for _, kind, name in entries:
+        if kind == "object":
+            o = desc.objects[name]
+            members = [(o, np.zeros(3), np.eye(3))]
+            pose = (np.asarray(o.position, float), euler_to_mat(*o.orientation))
+            is_fixed = o.fixed
+        else:
+            c = desc.compounds[name]
+            members = [
+                (desc.objects[m], np.asarray(desc.objects[m].position, float),
+                 euler_to_mat(*desc.objects[m].orientation))
+                for m in c.objects
+            ]
+            pose = (np.asarray(c.position, float), euler_to_mat(*c.orientation))
+            is_fixed = c.fixed
+        m_tot = sum(o.mass for o, _, _ in members)
+        cm = sum(o.mass * p for o, p, _ in members) / m_tot
+        inertia = np.zeros((3, 3))
+        pts = []
+        for o, p, R in members:
+            d = p - cm
+            inertia += R @ object_inertia(o) @ R.T + o.mass * (d @ d * np.eye(3) - np.outer(d, d))
+            pts.append(object_contacts(o) @ R.T + p)
+        names.append(name)
+        masses.append(m_tot)
+        inertias.append(inertia)
+        cms.append(cm)
+        fixed.append(is_fixed)
+        contacts_local.append(np.concatenate(pts) - cm if pts else np.zeros((0, 3)))
+        frame_pose[name] = pose
+    nb = len(names)
+    index = {n: i for i, n in enumerate(names)}
+
+    # -- joints: place child bodies from their parents (a forest, checked by the parser)
+    children = {j.body_b: j for j in desc.joints}
+    placed: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    def place(name: str, depth: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        if name in placed:
+            return placed[name]
+        if depth > nb:
+            raise DescriptionError(path, children[name].line, "joints form a cycle")
+        if name not in children:
+            placed[name] = frame_pose[name]
+            return placed[name]
+        j = children[name]
+        pa, Ra = place(j.body_a, depth + 1)
+        Rb = Ra @ euler_to_mat(*j.orientation)
+        pivot_world = pa + Ra @ np.asarray(j.pivot_a, float)
+        pb = pivot_world - Rb @ np.asarray(j.pivot_b, float)
+        placed[name] = (pb, Rb)
+        return placed[name]
+
+    x0 = np.zeros((3, nb))
+    q0 = np.zeros((4, nb))
+    for i, n in enumerate(names):
+        p, R = place(n)
+        x0[:, i] = p + R @ cms[i]
+        q0[:, i] = mat_to_quat(R)
+
+    mass = np.asarray(masses)
+    inertia = np.stack(inertias, -1)
+    inv_inertia = np.stack([np.linalg.inv(I) for I in inertias], -1)
+    i_min = np.array([np.linalg.eigvalsh(I).min() for I in inertias])
+
+    # -- points: pivot-spring ends first, then contact vertices
+    pt_body, pt_local = [], []
+    sp_a, sp_b = [], []
+    jd = desc.joints
+    j_a, j_b, j_axis, j_ref, j_lo, j_hi, j_ctrl, j_q0 = [], [], [], [], [], [], [], []
+    gains = []
+    for j in jd:
+        ia, ib = index[j.body_a], index[j.body_b]
+        axis = AXES[j.axis.upper()]
+        for s in (-0.5, 0.5):
+            for bi, piv in ((ia, j.pivot_a), (ib, j.pivot_b)):
+                pt_body.append(bi)
+                pt_local.append(np.asarray(piv, float) + s * AXIS_WIDTH * axis - cms[bi])
+            sp_a.append(len(pt_body) - 2)
+            sp_b.append(len(pt_body) - 1)
+        j_a.append(ia)
+        j_b.append(ib)
+        j_axis.append(axis)
+        j_ref.append(REFS[j.axis.upper()])
+        lo, hi = j.limits if j.limits is not None else (-np.inf, np.inf)
+        j_lo.append(lo)
+        j_hi.append(hi)
+        j_ctrl.append(j.control_index if j.controlled else -1)
+        j_q0.append(float(np.dot(np.asarray(j.orientation), axis)))
+        sv = j.servo or desc.servo
+        gains.append((sv.kp, sv.ki, sv.kd, sv.tau_max) if j.controlled else (0.0, 0.0, 0.0, 0.0))
+    ct_pt = []
+    for i in range(nb):
+        for v in contacts_local[i]:
+            ct_pt.append(len(pt_body))
+            pt_body.append(i)
+            pt_local.append(v)
+    pt_body = np.asarray(pt_body, dtype=np.int32)
+    pt_local = np.asarray(pt_local, float).reshape(-1, 3).T
+
+    # -- conservative effective masses for the implicit dampers (mass splitting):
+    # 1/m_eff of a point <= n_b (1/m + |r|^2 / I_min), n_b = points sharing the body.
+    share = np.bincount(pt_body, minlength=nb).astype(float)
+    r2 = (pt_local**2).sum(0)
+    inv_m_pt = share[pt_body] * (1.0 / mass[pt_body] + r2 / i_min[pt_body])
+    inv_m_pt = np.where(np.asarray(fixed)[pt_body], 0.0, inv_m_pt)
+    sp_a = np.asarray(sp_a, dtype=np.int32)
+    sp_b = np.asarray(sp_b, dtype=np.int32)
+    ct_pt = np.asarray(ct_pt, dtype=np.int32)
+
+    nctrl = desc.n_controlled
+    ctrl_joint = np.zeros(nctrl, dtype=np.int32)
+    for k, c in enumerate(j_ctrl):
+        if c >= 0:
+            ctrl_joint[c] = k
+    g = np.asarray(gains, float).reshape(-1, 4)
+
+    track = index[desc.track] if desc.track else (
+        next((i for i, n in enumerate(names) if n not in children), 0))
+    A, B = desc.ground
+    alpha, beta = desc.joint_spring or (DEFAULT_ALPHA, DEFAULT_BETA)
+    tdef = desc.terrain
+    return Model(
+        body_names=tuple(names), mass=mass, inertia=inertia, inv_inertia=inv_inertia,
+        fixed=np.asarray(fixed, bool), x0=x0, q0=q0, cm_local=np.stack(cms, -1),
+        pt_body=pt_body, pt_local=pt_local, sp_a=sp_a, sp_b=sp_b,
+        sp_inv_meff=inv_m_pt[sp_a] + inv_m_pt[sp_b], ct_pt=ct_pt, ct_inv_meff=inv_m_pt[ct_pt],
+        joint_names=tuple(j.name for j in jd), j_a=np.asarray(j_a, np.int32), j_b=np.asarray(j_b, np.int32),
+        j_axis=np.asarray(j_axis, float).reshape(-1, 3).T, j_ref=np.asarray(j_ref, float).reshape(-1, 3).T,
+        j_lo=np.asarray(j_lo, float), j_hi=np.asarray(j_hi, float), j_ctrl=np.asarray(j_ctrl, np.int32),
+        j_kp=g[:, 0], j_ki=g[:, 1], j_kd=g[:, 2], j_taumax=g[:, 3], j_q0=np.asarray(j_q0, float),
+        ctrl_joint=ctrl_joint,
+        gravity=float(desc.gravity), ground_A=float(A), ground_B=float(B),
+        mu_static=float(desc.friction),
+        mu_dynamic=float(desc.friction_dynamic if desc.friction_dynamic is not None else desc.friction),
+        alpha=float(alpha), beta=float(beta), dt=float(dt or desc.time_step or DEFAULT_DT),
+        terrain=make_terrain(terrain) if terrain else make_terrain(tdef),
+        track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
+        harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc,
+    )
+
+
+def load_model(path: str, *, dt: float | None = None, terrain: str | None = None) -> Model:
+    """Parse a `.wl` file and build its Model."""
+    from cpgjax.wl import load_wl
+
+    return build_model(load_wl(path), dt=dt, terrain=terrain)

@@ -1,0 +1,21 @@
+"""The joint servo: a PID position loop with torque saturation (thesis Ch. 5, 6.1.1).
+
+The real robot ran one LM628 PID chip per joint on 0.35 N m DC motors through 50:1
+gearboxes, hence the default saturation of 17.5 N m.  The CPG gives the target angle
+and its rate; the derivative acts on the error rate.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+
+def servo_torques(model, angle, rate, target, target_rate, e_int):
+    """Torque [nj, B] about each joint axis (zero on passive joints) and d(e_int)/dt [nctrl, B]."""
+    cj = model.ctrl_joint
+    err = target - angle[cj]
+    derr = target_rate - rate[cj]
+    kp, ki, kd, tmax = (g[cj][:, None] for g in (model.j_kp, model.j_ki, model.j_kd, model.j_taumax))
+    tau_c = jnp.clip(kp * err + ki * e_int + kd * derr, -tmax, tmax)
+    tau = jnp.zeros_like(angle).at[cj].set(tau_c) if len(cj) else jnp.zeros_like(angle)
+    return tau, err
