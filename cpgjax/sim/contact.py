@@ -5,10 +5,13 @@ Normal reaction ``f_r = A d - B v_n`` for a vertex at depth ``d`` below the terr
 implicitly per vertex with a conservative effective mass (see `joints`), so the
 resting penetration is exactly ``m g / (A * contacts)``.
 
-Friction (Appendix B has a static and a dynamic branch): the tangential force that
-would stop the vertex's sliding within one step, ``m_eff |v_t| / dt``, is applied if
-it is within ``mu_s f_r`` (static friction: sticking); otherwise the vertex slides
-with ``mu_d f_r`` against its tangential velocity (dynamic friction).
+Friction (Appendix B has a static and a dynamic branch) is a stick-slip penalty:
+each vertex in contact is tied to an anchor on the ground by a tangential spring
+``k_t`` with damper ``b_t`` (static friction: the vertex sticks while that force is
+within ``mu_s f_r``); beyond it the vertex slides with ``mu_d f_r`` and its anchor is
+dragged along so that the spring holds exactly that force (dynamic friction).  A
+vertex out of contact carries its anchor with it.  Unlike a velocity-only friction,
+the sticking force does not depend on the step.
 """
 
 from __future__ import annotations
@@ -18,9 +21,12 @@ import jax.numpy as jnp
 from cpgjax.sim.rotation import dot
 from cpgjax.sim.terrain import height_and_normal
 
+FRICTION_K = 1.0e5  # N/m    tangential (stiction) spring, as stiff as the ground (A)
+FRICTION_B = 1.0e3  # N s/m  its damper, as the ground's (B)
 
-def contact_forces(model, p, pv):
-    """Force [3, nc, B] at each contact vertex, and its depth [nc, B] (positive when inside)."""
+
+def contact_forces(model, p, pv, anchor):
+    """Force [3, nc, B] at each contact vertex, its depth [nc, B] and the new anchors [3, nc, B]."""
     cp, cv = p[:, model.ct_pt], pv[:, model.ct_pt]
     if model.terrain.flat:  # fast path: z_g = 0, n = (0, 0, 1), no lookup
         zero = jnp.zeros_like(cp[2])
@@ -34,9 +40,21 @@ def contact_forces(model, p, pv):
     inv_m = model.ct_inv_meff[:, None]
     dt = model.dt
     B_eff = model.ground_B / (1.0 + dt * model.ground_B * inv_m)
-    fn = jnp.where(depth > 0, jnp.maximum(model.ground_A * depth - B_eff * vn, 0.0), 0.0)
+    touch = depth > 0
+    fn = jnp.where(touch, jnp.maximum(model.ground_A * depth - B_eff * vn, 0.0), 0.0)
+    # stick-slip friction
+    d = cp - anchor
+    d = d - dot(d, n) * n
     vt = cv - vn * n
-    speed = jnp.sqrt(dot(vt, vt) + 1e-12)
-    f_stick = speed / (inv_m * dt)
-    ft = jnp.where(f_stick <= model.mu_static * fn, f_stick, model.mu_dynamic * fn)
-    return fn * n - (ft / speed) * vt, depth
+    bt_eff = FRICTION_B / (1.0 + dt * FRICTION_B * inv_m)
+    f_spring = -FRICTION_K * d - bt_eff * vt
+    mag = jnp.sqrt(dot(f_spring, f_spring) + 1e-12)
+    slide = mag > model.mu_static * fn
+    f_slide = model.mu_dynamic * fn
+    ft = jnp.where(slide, f_spring * (f_slide / mag), f_spring)
+    # sliding: the anchor trails the vertex so that the spring alone holds mu_d f_r
+    d_mag = jnp.sqrt(dot(d, d) + 1e-18)
+    d_new = d * jnp.minimum(1.0, f_slide / (FRICTION_K * d_mag))
+    new_anchor = jnp.where(touch, jnp.where(slide, cp - d_new, anchor), cp)
+    ft = jnp.where(touch, ft, 0.0)
+    return fn * n + ft, depth, new_anchor

@@ -35,10 +35,20 @@ def joint_angles(model, R, w):
     return angle, rate, axis
 
 
+def implicit_damping(model, c):
+    """Damping coefficient about the joint axes integrated implicitly: c / (1 + dt c / I_eff) [nj, 1].
+
+    1/I_eff = a.(Ia^-1 + Ib^-1).a in the body frames (the axis is fixed in both), a
+    conservative bound: the relative rotation of two free bodies about their CMs.
+    """
+    return (c / (1.0 + model.dt * c * model.j_inv_ieff))[:, None]
+
+
 def limit_torques(model, angle, rate):
-    """Stiff penalty torque [nj, B] beyond the joint limits."""
+    """Stiff penalty torque [nj, B] beyond the joint limits (implicit damper)."""
     lo, hi = model.j_lo[:, None], model.j_hi[:, None]
     over = jnp.maximum(angle - hi, 0.0)
     under = jnp.minimum(angle - lo, 0.0)
     active = (over > 0) | (under < 0)
-    return -model.limit_k * (over + under) - jnp.where(active, model.limit_c * rate, 0.0)
+    c = implicit_damping(model, model.limit_c * jnp.ones(model.nj))
+    return -model.limit_k * (over + under) - jnp.where(active, c * rate, 0.0)

@@ -27,8 +27,8 @@ from cpgjax.sim.terrain import Terrain, make_terrain
 
 # Defaults chosen by the time-step study (docs/simulator.md).
 DEFAULT_DT = 5.0e-4
-DEFAULT_ALPHA = 1.0e5  # N/m   joint pivot spring (eq. 3.6)
-DEFAULT_BETA = 200.0  # N s/m joint pivot damper (eq. 3.6)
+DEFAULT_ALPHA = 3.0e5  # N/m   joint pivot spring (eq. 3.6)
+DEFAULT_BETA = 300.0  # N s/m joint pivot damper (eq. 3.6)
 AXIS_WIDTH = 0.04  # m: distance between the two pivot springs of a revolute joint
 LIMIT_STIFFNESS = 300.0  # N m / rad beyond a joint limit
 LIMIT_DAMPING = 3.0  # N m s / rad beyond a joint limit
@@ -73,6 +73,7 @@ class Model:
     j_kd: np.ndarray
     j_taumax: np.ndarray
     j_q0: np.ndarray  # [nj] initial joint angles
+    j_inv_ieff: np.ndarray  # [nj] a.(Ia^-1 + Ib^-1).a, for the implicit joint dampers
     ctrl_joint: np.ndarray  # [nctrl] joint index of each controlled DOF
     # world
     gravity: float
@@ -308,6 +309,10 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         j_axis=np.asarray(j_axis, float).reshape(-1, 3).T, j_ref=np.asarray(j_ref, float).reshape(-1, 3).T,
         j_lo=np.asarray(j_lo, float), j_hi=np.asarray(j_hi, float), j_ctrl=np.asarray(j_ctrl, np.int32),
         j_kp=g[:, 0], j_ki=g[:, 1], j_kd=g[:, 2], j_taumax=g[:, 3], j_q0=np.asarray(j_q0, float),
+        j_inv_ieff=np.array([
+            0.0 if (fixed[a] and fixed[b]) else
+            (0.0 if fixed[a] else ax @ inv_inertia[:, :, a] @ ax) + (0.0 if fixed[b] else ax @ inv_inertia[:, :, b] @ ax)
+            for a, b, ax in zip(j_a, j_b, j_axis)]).reshape(-1),
         ctrl_joint=ctrl_joint,
         gravity=float(desc.gravity), ground_A=float(A), ground_B=float(B),
         mu_static=float(desc.friction),

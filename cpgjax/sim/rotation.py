@@ -64,13 +64,19 @@ def quat_integrate(q, omega, dt):
     return q * jnp.reciprocal(jnp.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2))
 
 
+POLY_ATAN2 = False  # read at trace time; `cpgjax bench --tricks` flips it to measure the difference
+
+
 def atan2(y, x):
     """Polynomial atan2, max error about 1e-5 rad.
 
-    Why not `jnp.arctan2`: on CPU XLA lowers it to a slow scalar libm call inside the
-    fused step loop; this minimax polynomial vectorises.  It sits on the servo's
-    hot path (one per joint per step); `cpgjax bench` has the library version beside it.
+    Why it exists: a prototype found the library atan2 slow inside XLA's fused CPU loops
+    and this minimax polynomial faster.  With jax 0.10.2 we measured the opposite
+    (`cpgjax bench --tricks`: the library version is faster), so it is off by default
+    (``POLY_ATAN2``) and kept for that comparison on other versions.
     """
+    if not POLY_ATAN2:
+        return jnp.arctan2(y, x)
     ax, ay = jnp.abs(x), jnp.abs(y)
     swap = ay > ax
     num = jnp.where(swap, ax, ay)

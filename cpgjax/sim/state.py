@@ -13,7 +13,9 @@ class State(NamedTuple):
 
     x: [3, nb, B] CM positions; q: [4, nb, B] orientations (w, x, y, z);
     v: [3, nb, B] CM velocities; w: [3, nb, B] angular velocities (world frame);
-    e_int: [nctrl, B] integral of the servo error; t: [] simulated time.
+    e_int: [nctrl, B] integral of the servo error;
+    anchor: [3, nc, B] static-friction anchor of each contact vertex (its position when not in contact);
+    t: [] simulated time.
     """
 
     x: jnp.ndarray
@@ -21,6 +23,7 @@ class State(NamedTuple):
     v: jnp.ndarray
     w: jnp.ndarray
     e_int: jnp.ndarray
+    anchor: jnp.ndarray
     t: jnp.ndarray
 
 
@@ -31,8 +34,22 @@ def initial_state(model, batch: int = 1, dtype=jnp.float32) -> State:
     def tile(a):
         return jnp.asarray(np.repeat(np.asarray(a)[..., None], batch, -1), dtype)
 
+    x0 = np.asarray(model.x0)
+    anchors = np.zeros((3, len(model.ct_pt)))
+    for k, pt in enumerate(model.ct_pt):
+        b = model.pt_body[pt]
+        anchors[:, k] = x0[:, b] + _quat_mat_np(model.q0[:, b]) @ model.pt_local[:, pt]
     return State(
-        x=tile(model.x0), q=tile(model.q0), v=jnp.zeros((3, nb, batch), dtype),
+        x=tile(model.x0), q=tile(model.q0), anchor=tile(anchors), v=jnp.zeros((3, nb, batch), dtype),
         w=jnp.zeros((3, nb, batch), dtype), e_int=jnp.zeros((model.n_ctrl, batch), dtype),
         t=jnp.zeros((), dtype),
     )
+
+
+def _quat_mat_np(q):
+    w, x, y, z = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])

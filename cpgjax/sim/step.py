@@ -41,7 +41,7 @@ def forces(model, state, ctrl):
     R = quat_to_mat(state.q)
     r, p, pv = point_kinematics(model, state, R)
     fs = pivot_spring_forces(model, p, pv)
-    fc, depth = contact_forces(model, p, pv)
+    fc, depth, anchor = contact_forces(model, p, pv, state.anchor)
     ns = fs.shape[1]
     # points are ordered [spring a-end, spring b-end] * ns, then the contact vertices
     f_pt = jnp.concatenate([jnp.stack([fs, -fs], 2).reshape(3, 2 * ns, -1), fc], 1)
@@ -51,12 +51,12 @@ def forces(model, state, ctrl):
     P, J = incidence(model)
     force = jnp.einsum("bp,kpn->kbn", P, f_pt)
     torque = jnp.einsum("bp,kpn->kbn", P, cross(r, f_pt)) + jnp.einsum("bj,kjn->kbn", J, tau * axis)
-    return R, force, torque, err
+    return R, force, torque, err, anchor
 
 
 def step(model, state, ctrl):
     """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``."""
-    R, force, torque, err = forces(model, state, ctrl)
+    R, force, torque, err, anchor = forces(model, state, ctrl)
     a, alpha = accelerations(model, R, state.w, force, torque)
     new = integrate(state, a, alpha, model.dt)
-    return new._replace(e_int=state.e_int + model.dt * err, t=state.t + model.dt)
+    return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, t=state.t + model.dt)

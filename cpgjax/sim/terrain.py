@@ -67,7 +67,13 @@ def make_terrain(spec: str | TerrainDef | None) -> Terrain:
             nx, ny, x0, x1, y0, y1 = params[:6]
             h = np.asarray(spec.heights, float).reshape(int(ny), int(nx))
             return Terrain("matrix", h, x0, y0, (x1 - x0) / max(int(nx) - 1, 1), (y1 - y0) / max(int(ny) - 1, 1))
-        text = ":".join([kind, *(repr(float(p)) for p in params)] + ([axis] if kind == "ramp" else []))
+        p = [repr(float(v)) for v in params]
+        if kind == "bump":
+            text = f"bump:{p[0]}" + (f"@{p[1]}" if len(p) > 1 else "") + (f":{p[2]}" if len(p) > 2 else "")
+        elif kind == "ramp":
+            text = f"ramp:{p[0]}:{axis}"
+        else:
+            text = ":".join([kind, *p])
         return make_terrain(text)
     text = spec.strip()
     kind, _, rest = text.partition(":")
@@ -98,7 +104,7 @@ def make_terrain(spec: str | TerrainDef | None) -> Terrain:
             parts = rest.split(":")
             rng_range = float(parts[0])
             cell = float(parts[1]) if len(parts) > 1 and parts[1] else 0.1
-            seed = int(parts[2]) if len(parts) > 2 and parts[2] else 0
+            seed = int(float(parts[2])) if len(parts) > 2 and parts[2] else 0
             xs, ys = _grid(EXTENT_X, EXTENT_Y, cell)
             h = np.random.default_rng(seed).uniform(0.0, rng_range, size=(len(ys), len(xs)))
             return Terrain(text, h, xs[0], ys[0], cell, cell)

@@ -1,0 +1,121 @@
+"""`cpgjax bench`: how fast the penalty simulator scores controllers.
+
+Reports, for the quadruped at several batch sizes, robot-steps per second and simulated
+robot-seconds per wall second, with the compile time apart (first call minus second).
+``--tricks`` also measures what each speed trick buys, side by side in one run: all
+host devices vs one, the polynomial atan2 vs the library one, and the chunk size.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+
+import numpy as np
+
+DEFAULT_BATCHES = (1, 20, 256, 1024, 4096)
+
+
+def _controllers(model, n, seed=0):
+    from cpgjax.cpg import sinusoid_genome
+
+    rng = np.random.default_rng(seed)
+    base = sinusoid_genome(model.n_ctrl, model.harmonics).reshape(model.n_ctrl, model.n_coeff)
+    return np.clip(base[None] + rng.uniform(-0.3, 0.3, (n, model.n_ctrl, model.n_coeff)), -0.8, 0.8)
+
+
+def measure(model, batch: int, time_s: float, *, chunk: int = 64, devices=None, repeats: int = 1):
+    """(compile_s, run_s) of one episode of ``time_s`` for ``batch`` robots (fresh compile)."""
+    import jax
+
+    from cpgjax.sim.episode import evaluate
+
+    coeffs = jax.numpy.asarray(_controllers(model, batch), jax.numpy.float32)
+    f = jax.jit(lambda c: evaluate(model, c, time=time_s, chunk=chunk, devices=devices))
+    t0 = time.perf_counter()
+    jax.block_until_ready(f(coeffs))
+    first = time.perf_counter() - t0
+    runs = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        jax.block_until_ready(f(coeffs))
+        runs.append(time.perf_counter() - t0)
+    run = min(runs)
+    return max(first - run, 0.0), run
+
+
+def row(model, batch, time_s, label="", **kw):
+    from cpgjax.sim.episode import schedule
+
+    compile_s, run_s = measure(model, batch, time_s, **kw)
+    inner, outer = schedule(model, time_s)
+    steps = inner * outer
+    T = steps * model.dt
+    return {
+        "label": label, "batch": batch, "dt": model.dt, "sim_time": T, "compile_s": compile_s, "wall_s": run_s,
+        "robot_steps_per_s": batch * steps / run_s, "robot_s_per_s": batch * T / run_s,
+    }
+
+
+def print_table(rows, title=""):
+    if title:
+        print(title)
+    print(f"{'what':<28}{'batch':>7}{'dt [s]':>9}{'compile [s]':>13}{'wall [s]':>10}"
+          f"{'robot-steps/s':>15}{'robot-s/s':>11}")
+    for r in rows:
+        print(f"{r['label']:<28}{r['batch']:>7}{r['dt']:>9.0e}{r['compile_s']:>13.2f}{r['wall_s']:>10.3f}"
+              f"{r['robot_steps_per_s']:>15,.0f}{r['robot_s_per_s']:>11,.1f}")
+
+
+def machine() -> str:
+    import jax
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, jax {jax.__version__}, {len(jax.devices())} host device(s)"
+
+
+def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chunk: int = 64,
+              tricks: bool = False, progress=True):
+    """The main table (and the tricks table); returns the rows."""
+    import jax
+
+    from cpgjax.sim import rotation
+    from cpgjax.sim.model import load_model
+
+    model = load_model(model_path)
+    print(f"machine: {machine()}")
+    print(f"model: {model_path}  ({model.nb} bodies, {model.nj} joints, {len(model.ct_pt)} contact vertices), "
+          f"episode {time_s} s simulated, chunk {chunk}")
+    rows = []
+    for b in batches:
+        rows.append(row(model, b, time_s, label=f"penalty sim, {len(jax.devices())} dev", chunk=chunk))
+        if progress:
+            print(f"  batch {b}: {rows[-1]['robot_s_per_s']:,.1f} robot-s/s", flush=True)
+    print()
+    print_table(rows)
+    if tricks:
+        b = 256 if 256 in batches else max(batches)
+        trows = [row(model, b, time_s, label="all tricks", chunk=chunk)]
+        trows.append(row(model, b, time_s, label="1 host device", chunk=chunk, devices=jax.devices()[:1]))
+        default = rotation.POLY_ATAN2
+        rotation.POLY_ATAN2 = not default
+        try:
+            trows.append(row(model, b, time_s, chunk=chunk,
+                             label="library atan2" if default else "polynomial atan2"))
+        finally:
+            rotation.POLY_ATAN2 = default
+        for c in (16, 32, 128, 256):
+            trows.append(row(model, b, time_s, label=f"chunk {c}", chunk=c))
+        print()
+        print_table(trows, "what each trick buys (same run)")
+        rows += trows
+    return rows

@@ -1,0 +1,156 @@
+"""The `cpgjax` command line: simulate, bench, study-dt, and the commands of the other modules."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+
+def _load_controller(args, model):
+    from cpgjax.ctl import read_ctl
+
+    if not args.ctl:
+        return np.zeros((model.n_ctrl, model.n_coeff)), "-"
+    ctl = read_ctl(args.ctl, n_dof=model.n_ctrl, harmonics=model.harmonics)
+    return np.asarray(ctl.coeffs), args.ctl
+
+
+def cmd_simulate(args) -> int:
+    from cpgjax.logs import pose_rows, write_log
+    from cpgjax.sim.episode import simulate
+    from cpgjax.sim.model import load_model
+
+    model = load_model(args.model, dt=args.dt, terrain=args.terrain)
+    if args.gravity is not None:
+        model = model.replace(gravity=args.gravity)
+    coeffs, ctl_name = _load_controller(args, model)
+    T = model.time_max if args.time is None else args.time
+    r = simulate(model, coeffs, time=T, delta=args.delta, record=bool(args.log))
+    body = model.body_names[model.track]
+    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, dt {model.dt:g} s, "
+          f"terrain {model.terrain.spec})")
+    print(f"control   {ctl_name}")
+    print(f"time      {T:g} s")
+    print(f"distance  {float(r['distance']):+.4f} m   (body {body}, forward = +y)")
+    print(f"speed     {float(r['speed']):+.4f} m/s")
+    print(f"tilt      {np.degrees(float(r['tilt'])):.2f} deg (mean angle of the body normal from vertical)")
+    print(f"fitness   {float(r['fitness']):+.6f}   (eq. 4.6, delta {args.delta:g})")
+    print(f"fallen    {'yes' if r['fallen'] else 'no'}")
+    print(f"diverged  {'yes' if r['diverged'] else 'no'}")
+    print(f"pivots    max stretch {1000 * float(r['pivot_err']):.3f} mm")
+    if args.log:
+        desc = model.description
+        logs = desc.logs if desc and desc.logs else []
+        if not logs:
+            from cpgjax.description import LogDef
+
+            logs = [LogDef(body, f"{body.lower()}.log", 0)]
+        for lg in logs:
+            i = model.body_index(lg.body)
+            kind = "compound" if desc and lg.body in desc.compounds else "object"
+            path = os.path.join(args.log, os.path.basename(lg.file))
+            write_log(path, kind, lg.body, os.path.basename(args.model), os.path.basename(ctl_name),
+                      pose_rows(r["traj"], i))
+            print(f"log       {path}")
+    return 1 if r["diverged"] else 0
+
+
+def cmd_bench(args) -> int:
+    from cpgjax.bench import run_bench
+
+    batches = tuple(int(b) for b in args.batches.split(","))
+    if args.against:
+        from cpgjax.bench_mjx import bench_against_mjx, print_rows
+
+        print_rows(bench_against_mjx(args.model, batches=batches, time=args.time))
+        return 0
+    run_bench(args.model, batches=batches, time_s=args.time, chunk=args.chunk, tricks=args.tricks)
+    return 0
+
+
+def cmd_study_dt(args) -> int:
+    from cpgjax.studies import timestep_study
+
+    timestep_study(args.model, args.ctl, [float(x) for x in args.dts.split(",")], time_s=args.time,
+                   out=args.out)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="cpgjax",
+        description="Evolve open-loop CPG controllers for walking robots in a penalty-method JAX simulator "
+                    "(after G. Grasso, 2000).",
+    )
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    s = sub.add_parser("simulate", help="run one episode of a model (and a .ctl controller)")
+    s.add_argument("model", help="robot description (.wl)")
+    s.add_argument("--ctl", help="controller (.ctl); without it every servo holds angle 0")
+    s.add_argument("--time", type=float, help="simulated seconds (default: the file's TimeMax)")
+    s.add_argument("--terrain", help="flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]")
+    s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
+    s.add_argument("--dt", type=float, help="integration step (default: the file's TimeStep or 5e-4 s)")
+    s.add_argument("--gravity", type=float, help="gravity [m/s^2] (default: the file's, 9.81)")
+    s.add_argument("--delta", type=float, default=8.0, help="delta of the fitness, eq. 4.5 (default 8)")
+    s.set_defaults(func=cmd_simulate)
+
+    b = sub.add_parser("bench", help="robot-steps/s and simulated robot-s per wall s at several batch sizes")
+    b.add_argument("--model", default=_default_model(), help="robot description (default: the quadruped)")
+    b.add_argument("--batches", default="1,20,256,1024,4096", help="comma-separated batch sizes")
+    b.add_argument("--time", type=float, default=2.0, help="simulated seconds per episode (default 2)")
+    b.add_argument("--chunk", type=int, default=64, help="robots per vectorised chunk (default 64)")
+    b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
+    b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
+    b.set_defaults(func=cmd_bench)
+
+    d = sub.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
+    d.add_argument("--model", default=_default_model())
+    d.add_argument("--ctl", default=os.path.join(os.path.dirname(_default_model()), "quadruped-trot.ctl"))
+    d.add_argument("--dts", default="1e-4,2e-4,3e-4,5e-4,7e-4,1e-3,1.5e-3")
+    d.add_argument("--time", type=float, default=10.0)
+    d.add_argument("--out", help="write the table as markdown here too")
+    d.set_defaults(func=cmd_study_dt)
+
+    for mod in ("cpgjax.cli_evolve", "cpgjax.cli_crosscheck", "cpgjax.cli_sweep"):
+        try:
+            module = __import__(mod, fromlist=["register"])
+        except ImportError:
+            continue
+        module.register(sub)
+    return p
+
+
+def _default_model() -> str:
+    here = os.path.dirname(os.path.abspath(__file__))
+    for cand in (os.path.join(os.getcwd(), "models", "quadruped.wl"),
+                 os.path.join(os.path.dirname(here), "models", "quadruped.wl")):
+        if os.path.exists(cand):
+            return cand
+    return "models/quadruped.wl"
+
+
+def main(argv=None) -> int:
+    from cpgjax.description import DescriptionError
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except DescriptionError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as e:
+        print(f"error: {e.filename}: no such file", file=sys.stderr)
+        return 2
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

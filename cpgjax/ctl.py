@@ -1,0 +1,172 @@
+"""The `.ctl` control file: a controller's fitness and its CPG Fourier coefficients (thesis Ch. 3.5.1).
+
+Format (the thesis example has 8 DOFs and K = 2, i.e. 8 lines of 5 numbers)::
+
+    0.012402                                            <- fitness (one number)
+    0.400000  0.255476  0.032754  -0.030112  0.013921   <- DOF 0: c0 a1 b1 a2 b2
+    ...                                                 <- one line per controlled DOF
+
+Each DOF line holds the 2K+1 coefficients of (thesis Ch. 2.2.1, SPEC §5)
+``q(t) = c0 + sum_k (a_k sin(2 pi k f0 t) + b_k cos(2 pi k f0 t))``, in the order
+``c0 a1 b1 a2 b2 ... aK bK``.  DOF lines follow the controlled joints of the `.wl` file
+(``JointDef.control_index``).  Blank lines and ``#`` comments are ignored.  The genome of
+the genetic algorithm is the coefficient matrix flattened row by row
+(:func:`coeffs_to_genome`, :func:`genome_to_coeffs`).
+
+Errors raise :class:`cpgjax.description.DescriptionError` (``path:line: message``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from cpgjax.description import DescriptionError
+
+__all__ = ["Control", "parse_ctl", "read_ctl", "format_ctl", "write_ctl", "genome_to_coeffs",
+           "coeffs_to_genome"]
+
+_NUM_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z")
+
+
+@dataclass
+class Control:
+    """A controller read from a `.ctl` file.
+
+    fitness: the first line of the file (the episode fitness, eq. 4.6; 0 if never evaluated).
+    coeffs: ``[n_dof, 2K+1]`` float64, row ``i`` = ``c0 a1 b1 ... aK bK`` of controlled DOF ``i``.
+    path: where it was read from (``"<string>"`` for text).
+    """
+
+    fitness: float
+    coeffs: np.ndarray
+    path: str = "<string>"
+
+    @property
+    def n_dof(self) -> int:
+        return int(self.coeffs.shape[0])
+
+    @property
+    def harmonics(self) -> int:
+        return (int(self.coeffs.shape[1]) - 1) // 2
+
+    @property
+    def genome(self) -> np.ndarray:
+        """The coefficients flattened row by row (the GA's genome)."""
+        return coeffs_to_genome(self.coeffs)
+
+
+def _number(tok: str, path: str, line: int) -> float:
+    if not _NUM_RE.match(tok):
+        if tok.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+            raise DescriptionError(path, line, f"'{tok}' is not a finite number")
+        raise DescriptionError(path, line, f"'{tok}' is not a number")
+    v = float(tok)
+    if not math.isfinite(v):
+        raise DescriptionError(path, line, f"'{tok}' is not a finite number")
+    return v
+
+
+def _expected(n_dof: int | None, n_coef: int | None) -> str:
+    dof = f"{n_dof} DOF line{'s' if n_dof != 1 else ''}" if n_dof is not None else "DOF lines"
+    if n_coef is None:
+        return dof
+    return f"{dof} of {n_coef} coefficients (K={(n_coef - 1) // 2})"
+
+
+def parse_ctl(text: str, path: str = "<string>", n_dof: int | None = None,
+              harmonics: int | None = None) -> Control:
+    """Parse `.ctl` text (thesis Ch. 3.5.1): the fitness, then one line of 2K+1 coefficients per DOF.
+
+    ``n_dof`` / ``harmonics``, when given, are checked against the file (e.g. the `.wl`
+    file's controlled joints and ``Harmonics``).
+    """
+    rows: list[tuple[int, list[float]]] = []
+    last_line = 1
+    for n, raw in enumerate(text.splitlines(), start=1):
+        toks = raw.split("#", 1)[0].split()
+        if not toks:
+            continue
+        last_line = n
+        rows.append((n, [_number(t, path, n) for t in toks]))
+    n_coef = None if harmonics is None else 2 * harmonics + 1
+    if not rows:
+        raise DescriptionError(path, 1, "empty control file: expected the fitness on the first line, then "
+                                        f"{_expected(n_dof, n_coef)}")
+    fit_line, fit = rows[0]
+    if len(fit) != 1:
+        raise DescriptionError(path, fit_line, f"the first line must be the fitness (one number), found "
+                                               f"{len(fit)} numbers; add the fitness line (0 if unknown)")
+    dofs = rows[1:]
+    if not dofs:
+        raise DescriptionError(path, last_line, f"expected {_expected(n_dof, n_coef)} after the fitness, "
+                                                "found none")
+    want = n_coef if n_coef is not None else len(dofs[0][1])
+    if want % 2 == 0:
+        raise DescriptionError(path, dofs[0][0], "a DOF line has 2K+1 numbers (c0, then a_k b_k for "
+                                                 f"k=1..K); found {want}")
+    for line, vals in dofs:
+        if len(vals) != want:
+            raise DescriptionError(path, line, f"expected {_expected(n_dof, want)}, found a line of "
+                                               f"{len(vals)} numbers")
+    if n_dof is not None and len(dofs) != n_dof:
+        line = dofs[n_dof][0] if len(dofs) > n_dof else last_line
+        raise DescriptionError(path, line, f"expected {_expected(n_dof, want)}, found {len(dofs)} DOF "
+                                           f"line{'s' if len(dofs) != 1 else ''}")
+    coeffs = np.array([vals for _, vals in dofs], dtype=np.float64)
+    return Control(fitness=float(fit[0]), coeffs=coeffs, path=path)
+
+
+def read_ctl(path: str | os.PathLike[str], n_dof: int | None = None, harmonics: int | None = None) -> Control:
+    """Read a `.ctl` file (see :func:`parse_ctl`)."""
+    p = os.fspath(path)
+    with open(p, encoding="utf-8") as f:
+        return parse_ctl(f.read(), p, n_dof=n_dof, harmonics=harmonics)
+
+
+def _f6(v: float) -> str:
+    return "%.6f" % (round(float(v), 6) + 0.0)  # + 0.0: no "-0.000000"
+
+
+def format_ctl(coeffs: Any, fitness: float = 0.0) -> str:
+    """The `.ctl` text: ``%.6f`` numbers separated by two spaces, one DOF per line (thesis example)."""
+    c = np.asarray(coeffs, dtype=np.float64)
+    if c.ndim != 2 or c.shape[1] % 2 == 0:
+        raise ValueError(f"coeffs must be [n_dof, 2K+1], got shape {c.shape}")
+    if not (np.all(np.isfinite(c)) and math.isfinite(float(fitness))):
+        raise ValueError("coefficients and fitness must be finite to be written to a .ctl file")
+    lines = [_f6(fitness)] + ["  ".join(_f6(v) for v in row) for row in c]
+    return "\n".join(lines) + "\n"
+
+
+def write_ctl(path: str | os.PathLike[str], coeffs: Any, fitness: float = 0.0) -> None:
+    """Write a `.ctl` file (see :func:`format_ctl`); values are rounded to 6 decimals, as in the thesis."""
+    text = format_ctl(coeffs, fitness)
+    with open(os.fspath(path), "w", encoding="utf-8") as f:
+        f.write(text)
+
+
+def genome_to_coeffs(genome: Any, n_dof: int, harmonics: int) -> Any:
+    """``[..., n_dof * (2K+1)]`` genome(s) -> ``[..., n_dof, 2K+1]`` coefficients (row-major).
+
+    Works on numpy and JAX arrays alike (a JAX array stays a JAX array, also under ``jit``).
+    """
+    g = genome if hasattr(genome, "reshape") and hasattr(genome, "shape") else np.asarray(genome)
+    n = 2 * harmonics + 1
+    if g.shape[-1] != n_dof * n:
+        raise ValueError(f"genome has {g.shape[-1]} genes, expected n_dof * (2K+1) = {n_dof} * {n} "
+                         f"= {n_dof * n}")
+    return g.reshape(*g.shape[:-1], n_dof, n)
+
+
+def coeffs_to_genome(coeffs: Any) -> Any:
+    """``[..., n_dof, 2K+1]`` coefficients -> ``[..., n_dof * (2K+1)]`` genome(s) (row-major)."""
+    c = coeffs if hasattr(coeffs, "reshape") and hasattr(coeffs, "shape") else np.asarray(coeffs)
+    if c.ndim < 2:
+        raise ValueError(f"coeffs must be [..., n_dof, 2K+1], got shape {c.shape}")
+    return c.reshape(*c.shape[:-2], c.shape[-2] * c.shape[-1])

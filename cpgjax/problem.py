@@ -1,0 +1,128 @@
+"""The optimisation problem the GA and the baselines see: genomes in, fitness out.
+
+A :class:`Problem` hides the simulator: the real one is built from a `.wl` model by
+:func:`cpgjax.fitness.make_problem` (the thesis fitness, eq. 4.5-4.6, averaged over an
+episode).  The genome of a controller is its `.ctl` coefficients flattened row-major, per
+controlled joint ``c0 a1 b1 ... aK bK`` (Ch. 2.2.1), searched in ``[-0.8, 0.8]`` per gene
+(the hypercube of side 1.6 of Ch. 6.2.5).
+
+This module also holds cheap *analytic* problems with a known optimum, used by the tests
+and by the CLI demo models ``analytic:sphere:G`` and ``analytic:diverging:G`` (see
+:func:`analytic_problem`).  They are not part of the thesis.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+Evaluate = Callable[[jax.Array], dict[str, jax.Array]]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A fitness to maximise over genomes in the box ``[lower, upper]^n_genes``.
+
+    ``evaluate(genomes [N, G] float32)`` returns ``{"fitness": [N] float32, "diverged": [N] bool}``
+    plus optional per-individual metrics (``[N]`` arrays, e.g. ``distance``, ``speed``, ``tilt``).
+    It must be pure, deterministic and traceable inside ``jit``/``lax.scan`` (no host callbacks);
+    ``N`` may be any size.  Fitness may be NaN/inf for diverged episodes: the GA replaces such
+    values by the population's worst finite fitness and counts them (see :mod:`cpgjax.ga`).
+
+    ``base_genome`` is the thesis's start (Ch. 4.3): one 0.5 Hz sinusoid per joint.
+    ``meta`` holds strings and numbers stored as HDF5 attributes of a run (model path and text,
+    simulation settings, ``n_dof`` and ``harmonics`` to turn a genome back into a `.ctl`).
+    """
+
+    name: str
+    n_genes: int
+    base_genome: np.ndarray
+    evaluate: Evaluate
+    lower: float = -0.8
+    upper: float = 0.8
+    meta: dict = field(default_factory=dict)
+
+
+def default_optimum(n_genes: int) -> np.ndarray:
+    """A fixed, irregular point inside the search box (|x| <= 0.5) used by the analytic problems."""
+    i = np.arange(n_genes, dtype=np.float64)
+    return (0.5 * np.sin(1.7 * i + 0.3)).astype(np.float32)
+
+
+def _analytic_base(n_genes: int) -> tuple[np.ndarray, dict]:
+    """Base genome and genome shape for an analytic problem: CPG-shaped (K = 2) when G % 5 == 0."""
+    from cpgjax.cpg import sinusoid_genome
+
+    if n_genes % 5 == 0:
+        base = sinusoid_genome(n_genes // 5, 2).astype(np.float32)
+        return base, {"n_dof": n_genes // 5, "harmonics": 2}
+    return np.zeros(n_genes, np.float32), {"n_dof": n_genes, "harmonics": 0}
+
+
+def sphere_problem(n_genes: int, optimum: np.ndarray | None = None, scale: float = 0.25,
+                   name: str | None = None) -> Problem:
+    """``f(g) = 1 - mean((g - opt)^2) / scale``: maximum 1 at ``opt``, negative far from it.
+
+    The negative values far from the optimum exercise the selection's handling of negative
+    fitness; ``distance`` (RMS distance to the optimum) is returned as an extra metric.
+    """
+    opt = default_optimum(n_genes) if optimum is None else np.asarray(optimum, np.float32)
+    if opt.shape != (n_genes,):
+        raise ValueError(f"optimum must have shape ({n_genes},), got {opt.shape}")
+    opt_j = jnp.asarray(opt)
+
+    def evaluate(genomes: jax.Array) -> dict[str, jax.Array]:
+        g = jnp.asarray(genomes, jnp.float32)
+        msd = jnp.mean(jnp.square(g - opt_j), axis=-1)
+        return {"fitness": 1.0 - msd / scale, "diverged": jnp.zeros(g.shape[0], bool),
+                "distance": jnp.sqrt(msd)}
+
+    base, shape = _analytic_base(n_genes)
+    meta = {"model_path": name or f"analytic:sphere:{n_genes}", "model_text": "", "scale": scale,
+            "optimum": " ".join(f"{v:.6f}" for v in opt), **shape}
+    return Problem(name=name or f"analytic:sphere:{n_genes}", n_genes=n_genes, base_genome=base,
+                   evaluate=evaluate, meta=meta)
+
+
+def diverging_problem(n_genes: int, optimum: np.ndarray | None = None, threshold: float = 0.6,
+                      scale: float = 0.25, name: str | None = None) -> Problem:
+    """The sphere problem, but a genome with any ``|gene| > threshold`` "diverges".
+
+    Diverged individuals get ``fitness = NaN`` and ``diverged = True``, like a simulation that
+    blew up; used to test that NaN never propagates into the GA.
+    """
+    inner = sphere_problem(n_genes, optimum, scale)
+
+    def evaluate(genomes: jax.Array) -> dict[str, jax.Array]:
+        out = inner.evaluate(genomes)
+        bad = jnp.any(jnp.abs(genomes) > threshold, axis=-1)
+        return {**out, "fitness": jnp.where(bad, jnp.nan, out["fitness"]), "diverged": bad}
+
+    nm = name or f"analytic:diverging:{n_genes}"
+    return Problem(name=nm, n_genes=n_genes, base_genome=inner.base_genome, evaluate=evaluate,
+                   meta={**inner.meta, "model_path": nm, "threshold": threshold})
+
+
+ANALYTIC = {"sphere": sphere_problem, "diverging": diverging_problem}
+
+
+def analytic_problem(spec: str) -> Problem:
+    """Parse ``analytic:KIND:G`` (KIND in ``sphere``, ``diverging``) — a test/demo model for the CLI.
+
+    ``cpgjax evolve analytic:sphere:40`` runs the GA on :func:`sphere_problem` with 40 genes
+    (8 "joints" x 5 coefficients); no simulator is involved.
+    """
+    parts = spec.split(":")
+    if len(parts) != 3 or parts[0] != "analytic" or parts[1] not in ANALYTIC:
+        raise ValueError(f"bad analytic model {spec!r}: expected analytic:{{{'|'.join(ANALYTIC)}}}:G")
+    try:
+        n = int(parts[2])
+    except ValueError:
+        raise ValueError(f"bad analytic model {spec!r}: G must be an integer") from None
+    if n < 1:
+        raise ValueError(f"bad analytic model {spec!r}: G must be >= 1")
+    return ANALYTIC[parts[1]](n, name=spec)

@@ -1,0 +1,323 @@
+"""Run results in HDF5: one file per run, appended and flushed generation by generation.
+
+Layout (``format = "cpgjax-run"``, ``format_version = 1``)::
+
+    /                       attributes
+        format, format_version   "cpgjax-run", 1
+        kind                     "ga" | "random" | "amc"
+        config                   JSON of the full run configuration (GAConfig / SearchConfig);
+                                 every field is also stored as its own attribute ``cfg_<name>``
+        seed                     the run's seed (jax.random.key(seed))
+        population               N, individuals per generation (per batch for the searches)
+        generations              the planned number of generations (batches / iterations)
+        completed                generations fully written; the datasets may hold more rows
+                                 (a write interrupted by a kill): readers truncate to it
+        problem, n_genes, lower, upper
+        meta                     JSON of Problem.meta; each entry is also an attribute of its
+                                 own (model_path, model_text (the .wl file's text), time,
+                                 terrain, delta, dt, n_dof, harmonics, ...)
+        versions                 JSON {python, cpgjax, jax, jaxlib, numpy, h5py, platform, device}
+        created                  ISO time the run was created
+    /genomes        float32 [G_done, N, n_genes]  every genome evaluated in each generation
+    /fitness        float32 [G_done, N]           fitness as evaluated (NaN kept when diverged)
+    /diverged       bool    [G_done, N]           diverged flag, or fitness not finite
+    /n_diverged     int32   [G_done]              diverged individuals per generation
+    /mutation_rate  float32 [G_done]              mu(GEN) of eq. 6.1 used to breed GEN+1 from GEN
+                                                  (NaN for the searches)
+    /wall_time      float64 [G_done]              seconds since the run started, at the end of
+                                                  the chunk holding GEN (summed over resumes)
+    /metrics/<name> float32 [G_done, N]           optional per-individual metrics of the problem
+                                                  (distance, speed, tilt, ...)
+    /state/<name>   [G_done, ...]                 the algorithm's state *after* GEN (GA: the
+                                                  population bred from GEN; AMC: centres, best
+                                                  fitness); the last row is what ``--resume``
+                                                  continues from
+
+Every dataset is chunked by generation with an unlimited first axis.  Writes of one
+generation are: resize, write the rows, set ``completed``, flush.  The writer opens the file
+only while it writes a chunk of generations and closes it between chunks, so a run killed
+while it computes leaves a closed, consistent file; a kill during a write loses at most the
+rows whose ``completed`` was not yet set.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import h5py
+import numpy as np
+
+FORMAT = "cpgjax-run"
+FORMAT_VERSION = 1
+ROW_DATASETS = ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate", "wall_time")
+
+
+def versions() -> dict[str, str]:
+    """Versions of the packages that make a run reproducible."""
+    import jax
+    import jaxlib
+
+    import cpgjax
+
+    try:
+        device = str(jax.devices()[0].device_kind)
+    except Exception:  # pragma: no cover - no backend
+        device = "unknown"
+    return {"python": sys.version.split()[0], "cpgjax": cpgjax.__version__, "jax": jax.__version__,
+            "jaxlib": jaxlib.__version__, "numpy": np.__version__, "h5py": h5py.__version__,
+            "platform": platform.platform(), "device": device}
+
+
+def _attr_value(v: Any) -> Any:
+    """A value HDF5 can store as an attribute (numbers, strings, bools); others as JSON text."""
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, float, str, np.integer, np.floating)):
+        return v
+    if v is None:
+        return ""
+    if isinstance(v, np.ndarray) and v.dtype.kind in "biuf":
+        return v
+    return json.dumps(v, default=str)
+
+
+def _json(v: Any) -> str:
+    return json.dumps(v, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
+
+
+class ResultsError(RuntimeError):
+    """A results file that cannot be used as asked (exists, wrong kind, mismatching run)."""
+
+
+@dataclass
+class Row:
+    """One generation's results, as numpy arrays."""
+
+    genomes: np.ndarray
+    fitness: np.ndarray
+    diverged: np.ndarray
+    mutation_rate: float
+    wall_time: float
+    metrics: dict[str, np.ndarray] = field(default_factory=dict)
+    state: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def create_run(path: str | os.PathLike[str], *, kind: str, config: Mapping[str, Any], problem,
+               population: int, generations: int, metrics: Mapping[str, tuple[tuple[int, ...], Any]],
+               state: Mapping[str, tuple[tuple[int, ...], Any]], overwrite: bool = False) -> None:
+    """Create an empty run file with its attributes and (empty, growable) datasets.
+
+    ``metrics`` and ``state`` map names to (shape of one generation's row, dtype).
+    Refuses to replace an existing file unless ``overwrite``.
+    """
+    p = os.fspath(path)
+    if os.path.exists(p) and not overwrite:
+        raise ResultsError(f"{p} exists; use --resume to continue it or --overwrite to replace it")
+    d = os.path.dirname(p)
+    if d:
+        os.makedirs(d, exist_ok=True)
+    n, g = int(population), int(problem.n_genes)
+    tmp = p + ".tmp"
+    with h5py.File(tmp, "w") as f:
+        a = f.attrs
+        a["format"], a["format_version"], a["kind"] = FORMAT, FORMAT_VERSION, kind
+        a["config"] = _json(dict(config))
+        for k, v in config.items():
+            a[f"cfg_{k}"] = _attr_value(v)
+        a["seed"] = int(config.get("seed", 0))
+        a["population"], a["generations"], a["completed"] = n, int(generations), 0
+        a["problem"], a["n_genes"] = str(problem.name), g
+        a["lower"], a["upper"] = float(problem.lower), float(problem.upper)
+        a["meta"] = _json(dict(problem.meta))
+        for k, v in problem.meta.items():
+            if k not in a:
+                a[k] = _attr_value(v)
+        a["versions"] = _json(versions())
+        a["created"] = _dt.datetime.now().isoformat(timespec="seconds")
+
+        def make(name: str, row: tuple[int, ...], dtype: Any) -> None:
+            f.create_dataset(name, shape=(0, *row), maxshape=(None, *row), dtype=dtype,
+                             chunks=(1, *row) if row else (256,))
+
+        make("genomes", (n, g), np.float32)
+        make("fitness", (n,), np.float32)
+        make("diverged", (n,), bool)
+        make("n_diverged", (), np.int32)
+        make("mutation_rate", (), np.float32)
+        make("wall_time", (), np.float64)
+        for name, (shape, dtype) in metrics.items():
+            make(f"metrics/{name}", tuple(shape), dtype)
+        for name, (shape, dtype) in state.items():
+            make(f"state/{name}", tuple(shape), dtype)
+    os.replace(tmp, p)
+
+
+class RunWriter:
+    """Append generations to a run file: ``with RunWriter(path) as w: w.append(row)``.
+
+    Opens the file on enter and closes it on exit (the driver holds it open only while it
+    writes one chunk).  Rows beyond ``completed`` (left by an interrupted write) are dropped
+    on open.
+    """
+
+    def __init__(self, path: str | os.PathLike[str]):
+        self.path = os.fspath(path)
+        self.f: h5py.File | None = None
+
+    def __enter__(self) -> RunWriter:
+        self.f = h5py.File(self.path, "a")
+        _truncate(self.f, int(self.f.attrs["completed"]))
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        assert self.f is not None
+        self.f.close()
+        self.f = None
+
+    @property
+    def completed(self) -> int:
+        assert self.f is not None
+        return int(self.f.attrs["completed"])
+
+    def append(self, row: Row) -> int:
+        """Write one generation, set ``completed`` and flush; returns the generation's index."""
+        f = self.f
+        assert f is not None
+        i = int(f.attrs["completed"])
+        values: dict[str, Any] = {
+            "genomes": row.genomes, "fitness": row.fitness, "diverged": row.diverged,
+            "n_diverged": np.int32(np.sum(row.diverged)), "mutation_rate": np.float32(row.mutation_rate),
+            "wall_time": np.float64(row.wall_time)}
+        values.update({f"metrics/{k}": v for k, v in row.metrics.items() if f"metrics/{k}" in f})
+        values.update({f"state/{k}": v for k, v in row.state.items()})
+        for name, v in values.items():
+            ds = f[name]
+            ds.resize(i + 1, axis=0)
+            ds[i] = v
+        f.attrs["completed"] = i + 1
+        f.flush()
+        return i
+
+    def set_attr(self, name: str, value: Any) -> None:
+        assert self.f is not None
+        self.f.attrs[name] = _attr_value(value)
+
+
+def _datasets(f: h5py.File) -> list[h5py.Dataset]:
+    out: list[h5py.Dataset] = []
+    f.visititems(lambda _, obj: out.append(obj) if isinstance(obj, h5py.Dataset) else None)
+    return out
+
+
+def _truncate(f: h5py.File, n: int) -> None:
+    for ds in _datasets(f):
+        if ds.shape[0] > n:
+            ds.resize(n, axis=0)
+
+
+@dataclass
+class Run:
+    """A run file read back (rows truncated to ``completed``)."""
+
+    path: str
+    attrs: dict[str, Any]
+    config: dict[str, Any]
+    meta: dict[str, Any]
+    genomes: np.ndarray        # [G, N, n_genes]
+    fitness: np.ndarray        # [G, N], NaN kept
+    diverged: np.ndarray       # [G, N]
+    n_diverged: np.ndarray     # [G]
+    mutation_rate: np.ndarray  # [G]
+    wall_time: np.ndarray      # [G]
+    metrics: dict[str, np.ndarray]
+    state: dict[str, np.ndarray]
+
+    @property
+    def kind(self) -> str:
+        return str(self.attrs["kind"])
+
+    @property
+    def completed(self) -> int:
+        return int(self.attrs["completed"])
+
+    def valid_fitness(self) -> np.ndarray:
+        """Fitness with diverged / non-finite entries as NaN."""
+        return np.where(self.diverged | ~np.isfinite(self.fitness), np.nan, self.fitness)
+
+    def best_per_generation(self) -> np.ndarray:
+        return _nanreduce(np.nanmax, self.valid_fitness())
+
+    def mean_per_generation(self) -> np.ndarray:
+        return _nanreduce(np.nanmean, self.valid_fitness())
+
+    def best(self) -> tuple[int, int, float, np.ndarray]:
+        """(generation, index, fitness, genome) of the best valid individual of the whole run."""
+        v = self.valid_fitness()
+        if v.size == 0 or not np.any(np.isfinite(v)):
+            raise ResultsError(f"{self.path}: no valid (finite, not diverged) individual")
+        gen, idx = np.unravel_index(int(np.nanargmax(v)), v.shape)
+        return int(gen), int(idx), float(v[gen, idx]), self.genomes[gen, idx]
+
+
+def _nanreduce(fn, v: np.ndarray) -> np.ndarray:
+    out = np.full(v.shape[0], np.nan)
+    ok = np.any(np.isfinite(v), axis=1)
+    if np.any(ok):
+        out[ok] = fn(v[ok], axis=1)
+    return out
+
+
+def _decode(v: Any) -> Any:
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def read_attrs(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The root attributes of a run file (no datasets)."""
+    with h5py.File(os.fspath(path), "r", locking=False) as f:
+        _check(f, path)
+        return {k: _decode(v) for k, v in f.attrs.items()}
+
+
+def _check(f: h5py.File, path: Any) -> None:
+    if f.attrs.get("format") != FORMAT:
+        raise ResultsError(f"{os.fspath(path)} is not a cpgjax run file")
+
+
+def read_run(path: str | os.PathLike[str]) -> Run:
+    """Read a run file (safe on a file another process is writing: opened without locking)."""
+    p = os.fspath(path)
+    with h5py.File(p, "r", locking=False) as f:
+        _check(f, p)
+        attrs = {k: _decode(v) for k, v in f.attrs.items()}
+        n = int(attrs["completed"])
+
+        def rows(name: str) -> np.ndarray:
+            return np.asarray(f[name][:n])
+
+        group = lambda g: {k: rows(f"{g}/{k}") for k in f[g]} if g in f else {}  # noqa: E731
+        return Run(path=p, attrs=attrs, config=json.loads(attrs["config"]), meta=json.loads(attrs["meta"]),
+                   genomes=rows("genomes"), fitness=rows("fitness"), diverged=rows("diverged"),
+                   n_diverged=rows("n_diverged"), mutation_rate=rows("mutation_rate"),
+                   wall_time=rows("wall_time"), metrics=group("metrics"), state=group("state"))
+
+
+def read_resume_point(path: str | os.PathLike[str]) -> tuple[int, dict[str, np.ndarray], float]:
+    """(completed generations, the state after the last one, its wall time) for ``--resume``."""
+    with h5py.File(os.fspath(path), "r") as f:
+        _check(f, path)
+        n = int(f.attrs["completed"])
+        if n == 0:
+            return 0, {}, 0.0
+        state = {k: np.asarray(f[f"state/{k}"][n - 1]) for k in f["state"]} if "state" in f else {}
+        return n, state, float(f["wall_time"][n - 1])

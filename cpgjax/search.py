@@ -1,0 +1,123 @@
+"""Baselines of Ch. 6.2.5-6.2.6 on the GA's budget: uniform random search and adaptive Monte Carlo.
+
+Both are written as the GA is: a pure ``propose(state, key, gen) -> genomes`` and a pure
+``update(state, genomes, fitness, gen) -> state``, driven by :func:`cpgjax.evolve.run_search`
+with the same chunked ``lax.scan``, the same keys (``fold_in(run_key, gen)``) and the same
+HDF5 layout (a "generation" is one batch of evaluations).
+
+**Random search** (Fig. 6.10): every sample uniform in the hypercube ``[-0.8, 0.8]^G``
+(side 1.6), in batches of ``batch`` (default 20, the GA's population) until ``samples``
+(default 3000 = 20 x 150) have been evaluated.
+
+**Adaptive Monte Carlo** (Fig. 6.11; Calvin 1996, "Adaptive Monte Carlo global search with
+bounded memory", thesis ref. [44]).  The thesis only says: "an array of M independent random
+variables is used to search the space of the parameters.  The estimates of parameter values
+is based on a fixed number of previous estimates.  Successive estimates distributions are
+restricted around the best estimate of the previous ones."  Our reading:
+
+* M independent searchers ("random variables"), m = 1..M, each with its own centre ``c_m``
+  and its best fitness so far ``b_m`` — a bounded memory of one estimate per variable;
+* iteration k draws ``B = ceil(batch / M)`` samples per variable, uniform in the box
+  ``[c_m - w_k, c_m + w_k]`` intersected with the hypercube (sampled uniformly inside the
+  intersection, so no mass piles up on the faces);
+* iteration 0 has ``c_m`` = the centre of the cube and ``w_0`` = half its side: the whole
+  cube, i.e. one round of random search;
+* the box contracts geometrically, ``w_k = w_0 (w_end / w_0)^(k / (K - 1))`` over the K
+  iterations of the budget (``w_end`` = ``width_end``, default 0.02);
+* after each iteration ``c_m`` moves to the variable's best sample if it beats ``b_m``
+  (diverged or non-finite samples never do).  Searchers never share information, so M
+  trades exploration (many independent searches) for refinement (more samples each).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+
+METHODS = ("random", "amc")
+
+
+@dataclass(frozen=True)
+class SearchConfig:
+    """Settings of a baseline search (Ch. 6.2.5-6.2.6)."""
+
+    method: str = "random"
+    samples: int = 3000        # evaluation budget (the GA's 20 x 150)
+    batch: int = 20            # evaluations per iteration (rounded up to a multiple of M for amc)
+    M: int = 5                 # independent random variables of the adaptive Monte Carlo search
+    width_end: float = 0.02    # half-width of the amc sampling box at the last iteration
+    seed: int = 0
+    chunk: int = 1             # iterations per jitted lax.scan chunk
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
+        if self.samples < 1 or self.batch < 1 or self.M < 1 or self.chunk < 1:
+            raise ValueError("samples, batch, M and chunk must be >= 1")
+        if self.width_end <= 0:
+            raise ValueError("width_end must be > 0")
+
+    @property
+    def per_variable(self) -> int:
+        """amc: samples per random variable per iteration."""
+        return math.ceil(self.batch / self.M)
+
+    @property
+    def population(self) -> int:
+        """Evaluations per iteration (one row of the results file)."""
+        return self.batch if self.method == "random" else self.M * self.per_variable
+
+    @property
+    def iterations(self) -> int:
+        """Iterations (rows) to spend the budget; the last may overshoot ``samples`` by < one batch."""
+        return math.ceil(self.samples / self.population)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def random_propose(key: jax.Array, n: int, n_genes: int, lower: float, upper: float) -> jax.Array:
+    """Fig. 6.10: ``n`` genomes uniform in the hypercube."""
+    return jax.random.uniform(key, (n, n_genes), jnp.float32, lower, upper)
+
+
+def amc_width(gen, iterations: int, lower: float, upper: float, width_end: float):
+    """Half-width of the sampling box at iteration ``gen``: geometric from the whole cube to ``width_end``."""
+    w0 = 0.5 * (upper - lower)
+    frac = jnp.asarray(gen, jnp.float32) / max(iterations - 1, 1)
+    return w0 * (width_end / w0) ** jnp.minimum(frac, 1.0)
+
+
+def amc_init(M: int, n_genes: int, lower: float, upper: float) -> dict[str, jax.Array]:
+    """Every variable starts at the centre of the cube with no best estimate."""
+    return {"center": jnp.full((M, n_genes), 0.5 * (lower + upper), jnp.float32),
+            "best": jnp.full((M,), -jnp.inf, jnp.float32)}
+
+
+def amc_propose(state: dict[str, jax.Array], key: jax.Array, width, per_variable: int,
+                lower: float, upper: float) -> jax.Array:
+    """``M * per_variable`` samples, uniform in each variable's box around its centre (within the cube)."""
+    c = state["center"]
+    lo = jnp.maximum(c - width, lower)[:, None, :]
+    hi = jnp.minimum(c + width, upper)[:, None, :]
+    u = jax.random.uniform(key, (c.shape[0], per_variable, c.shape[1]), jnp.float32)
+    return (lo + u * (hi - lo)).reshape(-1, c.shape[1])
+
+
+def amc_update(state: dict[str, jax.Array], genomes: jax.Array, fitness: jax.Array,
+               diverged: jax.Array) -> dict[str, jax.Array]:
+    """Each variable moves its centre to its best new sample if that beats its best so far."""
+    M = state["center"].shape[0]
+    bad = diverged | ~jnp.isfinite(fitness)
+    f = jnp.where(bad, -jnp.inf, fitness).reshape(M, -1)
+    g = genomes.reshape(M, f.shape[1], -1)
+    i = jnp.argmax(f, axis=1)
+    fb = jnp.take_along_axis(f, i[:, None], axis=1)[:, 0]
+    gb = jnp.take_along_axis(g, i[:, None, None], axis=1)[:, 0]
+    better = fb > state["best"]
+    return {"center": jnp.where(better[:, None], gb, state["center"]),
+            "best": jnp.where(better, fb, state["best"])}
