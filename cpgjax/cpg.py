@@ -25,7 +25,8 @@ def basis(t, harmonics: int, f0: float):
 def targets(coeffs, t, harmonics: int, f0: float):
     """Target angles and rates [n_ctrl, B] for coefficients [n_ctrl, 2K+1, B] at time t."""
     b, db = basis(t, harmonics, f0)
-    return jnp.einsum("c,jcn->jn", b, coeffs), jnp.einsum("c,jcn->jn", db, coeffs)
+    # explicit sums, not einsum: a dot's summation order depends on the batch shape
+    return (b[None, :, None] * coeffs).sum(1), (db[None, :, None] * coeffs).sum(1)
 
 
 def sinusoid_genome(n_ctrl: int, harmonics: int, amplitude: float = 0.3, phases=None) -> np.ndarray:

@@ -86,8 +86,15 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         s_new = _keep(ok, s_new, s)
         R = quat_to_mat(s_new.q)
         _, p, _ = point_kinematics(model, s_new, R)
-        piv = jnp.sqrt(jnp.sum((p[:, model.sp_b] - p[:, model.sp_a]) ** 2, 0)).max(0)
-        depth = (-p[2, model.ct_pt]).max(0) if model.terrain.flat else jnp.zeros((B,), coeffs.dtype)
+        zero = jnp.zeros((B,), coeffs.dtype)
+        piv = jnp.sqrt(jnp.sum((p[:, model.sp_b] - p[:, model.sp_a]) ** 2, 0)).max(0, initial=0.0)
+        if model.terrain.flat:
+            depth = (-p[2, model.ct_pt]).max(0, initial=0.0)
+        else:
+            from cpgjax.sim.terrain import height_and_normal
+
+            zg, _ = height_and_normal(model.terrain, p[0, model.ct_pt], p[1, model.ct_pt])
+            depth = (zg - p[2, model.ct_pt]).max(0, initial=0.0) + zero
         cosu = _up_cos(model, s_new.q)
         acc = {
             "fit": acc["fit"] + jnp.where(ok, fit, 0.0),
@@ -102,7 +109,8 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         if record:
             angle, _, _ = joint_angles(model, R, s_new.w)
             tgt, _ = targets(coeffs, s_new.t, K, f0)
-            out = {"x": s_new.x, "q": s_new.q, "angle": angle, "target": tgt, "t": s_new.t}
+            out = {"x": s_new.x, "q": s_new.q, "v": s_new.v, "w": s_new.w, "angle": angle, "target": tgt,
+                   "t": s_new.t}
         return (s_new, acc), out
 
     z = jnp.zeros((B,), coeffs.dtype)

@@ -52,6 +52,8 @@ class Model:
     # points on bodies (pivot-spring ends and contact vertices) [npt]
     pt_body: np.ndarray  # [npt] int
     pt_local: np.ndarray  # [3, npt] relative to the CM, body frame
+    pt_src: np.ndarray  # [npt] where each point's force comes from in [spring a-ends, b-ends, contacts]
+    pt_start: np.ndarray  # [nb + 1] the points of body b are pt_start[b]:pt_start[b+1] (sorted by body)
     # pivot springs [ns]: pairs of point indices
     sp_a: np.ndarray
     sp_b: np.ndarray
@@ -287,6 +289,21 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     sp_a = np.asarray(sp_a, dtype=np.int32)
     sp_b = np.asarray(sp_b, dtype=np.int32)
     ct_pt = np.asarray(ct_pt, dtype=np.int32)
+    # Sort points by body, so that summing point forces onto bodies is a sum over static
+    # contiguous slices: bitwise the same for any batch size (a dot with an incidence matrix
+    # is not: its summation order depends on the batch shape).
+    ns_ = len(sp_a)
+    src_old = np.zeros(len(pt_body), np.int32)
+    src_old[sp_a] = np.arange(ns_)
+    src_old[sp_b] = ns_ + np.arange(ns_)
+    src_old[ct_pt] = 2 * ns_ + np.arange(len(ct_pt))
+    perm = np.argsort(pt_body, kind="stable")
+    new_of_old = np.empty_like(perm)
+    new_of_old[perm] = np.arange(len(perm))
+    pt_body, pt_local, pt_src = pt_body[perm], pt_local[:, perm], src_old[perm]
+    inv_m_pt = inv_m_pt[perm]
+    sp_a, sp_b, ct_pt = new_of_old[sp_a], new_of_old[sp_b], new_of_old[ct_pt]
+    pt_start = np.concatenate([[0], np.cumsum(np.bincount(pt_body, minlength=nb))]).astype(np.int32)
 
     nctrl = desc.n_controlled
     ctrl_joint = np.zeros(nctrl, dtype=np.int32)
@@ -303,7 +320,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     return Model(
         body_names=tuple(names), mass=mass, inertia=inertia, inv_inertia=inv_inertia,
         fixed=np.asarray(fixed, bool), x0=x0, q0=q0, cm_local=np.stack(cms, -1),
-        pt_body=pt_body, pt_local=pt_local, sp_a=sp_a, sp_b=sp_b,
+        pt_body=pt_body, pt_local=pt_local, pt_src=pt_src, pt_start=pt_start, sp_a=sp_a, sp_b=sp_b,
         sp_inv_meff=inv_m_pt[sp_a] + inv_m_pt[sp_b], ct_pt=ct_pt, ct_inv_meff=inv_m_pt[ct_pt],
         joint_names=tuple(j.name for j in jd), j_a=np.asarray(j_a, np.int32), j_b=np.asarray(j_b, np.int32),
         j_axis=np.asarray(j_axis, float).reshape(-1, 3).T, j_ref=np.asarray(j_ref, float).reshape(-1, 3).T,

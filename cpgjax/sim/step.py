@@ -25,14 +25,23 @@ def point_kinematics(model, state, R):
     return r, state.x[:, pb] + r, state.v[:, pb] + cross(state.w[:, pb], r)
 
 
-def incidence(model):
-    """Static matrices that sum point forces and joint torques onto bodies."""
-    P = np.zeros((model.nb, len(model.pt_body)))
-    P[model.pt_body, np.arange(len(model.pt_body))] = 1.0
-    J = np.zeros((model.nb, model.nj))
-    J[model.j_b, np.arange(model.nj)] += 1.0
-    J[model.j_a, np.arange(model.nj)] -= 1.0
-    return P, J
+def sum_onto_bodies(model, f_pt, torque_joint):
+    """Sum point forces [3, npt, B] and joint torques [3, nj, B] onto bodies [3, nb, B].
+
+    Static slices and sums in a fixed order: bitwise the same result for any batch size.
+    """
+    zero = jnp.zeros((3, f_pt.shape[-1]), f_pt.dtype)
+    out = []
+    for b in range(model.nb):
+        lo, hi = int(model.pt_start[b]), int(model.pt_start[b + 1])
+        acc = f_pt[:, lo:hi].sum(1) if hi > lo else zero
+        if torque_joint is not None:
+            for j in np.nonzero(model.j_b == b)[0]:
+                acc = acc + torque_joint[:, j]
+            for j in np.nonzero(model.j_a == b)[0]:
+                acc = acc - torque_joint[:, j]
+        out.append(acc)
+    return jnp.stack(out, 1)
 
 
 def forces(model, state, ctrl):
@@ -42,15 +51,12 @@ def forces(model, state, ctrl):
     r, p, pv = point_kinematics(model, state, R)
     fs = pivot_spring_forces(model, p, pv)
     fc, depth, anchor = contact_forces(model, p, pv, state.anchor)
-    ns = fs.shape[1]
-    # points are ordered [spring a-end, spring b-end] * ns, then the contact vertices
-    f_pt = jnp.concatenate([jnp.stack([fs, -fs], 2).reshape(3, 2 * ns, -1), fc], 1)
+    f_pt = jnp.concatenate([fs, -fs, fc], 1)[:, model.pt_src]
     angle, rate, axis = joint_angles(model, R, state.w)
     tau_servo, err = servo_torques(model, angle, rate, target, target_rate, state.e_int)
     tau = tau_servo + limit_torques(model, angle, rate)
-    P, J = incidence(model)
-    force = jnp.einsum("bp,kpn->kbn", P, f_pt)
-    torque = jnp.einsum("bp,kpn->kbn", P, cross(r, f_pt)) + jnp.einsum("bj,kjn->kbn", J, tau * axis)
+    force = sum_onto_bodies(model, f_pt, None)
+    torque = sum_onto_bodies(model, cross(r, f_pt), tau * axis)
     return R, force, torque, err, anchor
 
 

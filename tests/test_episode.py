@@ -1,0 +1,76 @@
+"""Episodes (cpgjax/sim/episode.py) on the quadruped: standing, walking, batching, divergence."""
+
+import numpy as np
+import pytest
+
+from cpgjax.ctl import read_ctl
+from cpgjax.sim.episode import simulate
+from cpgjax.sim.model import load_model
+
+QUAD = "models/quadruped.wl"
+TROT = "models/quadruped-trot.ctl"
+
+
+@pytest.fixture(scope="module")
+def quad():
+    return load_model(QUAD)
+
+
+def test_quadruped_stands_with_zero_targets(quad):
+    r = simulate(quad, np.zeros((8, 5)), time=5.0, record=True)
+    z = r["traj"]["x"][:, 2, quad.track]
+    t = r["traj"]["t"]
+    assert not r["diverged"] and not r["fallen"]
+    assert np.ptp(z[t > 0.5]) < 0.01
+    assert r["pivot_err"] < 1e-3
+    assert abs(r["distance"]) < 0.01
+
+
+def test_hand_written_trot_walks_forward_without_turning_over(quad):
+    c = read_ctl(TROT, n_dof=8, harmonics=2).coeffs
+    r = simulate(quad, c, time=10.0)
+    assert r["distance"] > 0.5
+    assert not r["fallen"] and not r["diverged"]
+    assert 0 < r["fitness"] <= r["speed"] + 1e-6  # eq. 4.6 never above the mean speed
+
+
+def test_left_right_symmetric_gait_does_not_drift_sideways(quad):
+    # a bound: left and right legs in phase, front and back in antiphase
+    c = np.zeros((8, 5))
+    front = np.array([1, 1, 1, 1, 0, 0, 0, 0], bool)
+    knee = np.array([0, 1] * 4, bool)
+    sign = np.where(front, 1.0, -1.0)
+    c[~knee, 0], c[~knee, 1] = -0.2, 0.3 * sign[~knee]
+    c[knee, 0], c[knee, 2] = 0.4, 0.3 * sign[knee]
+    r = simulate(quad, c, time=5.0, record=True)
+    x = r["traj"]["x"][:, 0, quad.track]
+    assert np.abs(x).max() < 1e-3
+
+
+def test_a_batch_of_n_equals_n_single_runs_and_is_deterministic(quad):
+    rng = np.random.default_rng(0)
+    C = rng.uniform(-0.5, 0.5, (5, 8, 5))
+    batch = simulate(quad, C, time=1.0)
+    again = simulate(quad, C, time=1.0)
+    for k in batch:
+        np.testing.assert_array_equal(batch[k], again[k])
+    for i in range(len(C)):
+        one = simulate(quad, C[i], time=1.0)
+        np.testing.assert_array_equal(one["distance"], batch["distance"][i])
+        np.testing.assert_array_equal(one["fitness"], batch["fitness"][i])
+
+
+def test_a_diverging_episode_is_flagged_not_crashed(quad):
+    wild = quad.replace(dt=5e-3)
+    r = simulate(wild, np.zeros((2, 8, 5)), time=1.0)
+    assert r["diverged"].all()
+    assert np.isfinite(r["fitness"]).all() and (r["fitness"] == 0).all()
+    assert np.isfinite(r["distance"]).all()
+
+
+def test_absurd_gains_are_flagged_too(quad):
+    j = [jj for jj in quad.j_kp]
+    wild = quad.replace(j_kp=np.full_like(quad.j_kp, 1e7), j_taumax=np.full_like(quad.j_taumax, 1e7))
+    r = simulate(wild, np.full((8, 5), 0.5), time=1.0)
+    assert j and r["diverged"]
+    assert np.isfinite(r["fitness"])
