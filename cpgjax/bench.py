@@ -25,7 +25,7 @@ def _controllers(model, n, seed=0):
     return np.clip(base[None] + rng.uniform(-0.3, 0.3, (n, model.n_ctrl, model.n_coeff)), -0.8, 0.8)
 
 
-def measure(model, batch: int, time_s: float, *, chunk: int = 64, devices=None, repeats: int = 1):
+def measure(model, batch: int, time_s: float, *, chunk: int = 256, devices=None, repeats: int = 1):
     """(compile_s, run_s) of one episode of ``time_s`` for ``batch`` robots (fresh compile)."""
     import jax
 
@@ -83,7 +83,7 @@ def machine() -> str:
     return f"{cpu}, {os.cpu_count()} cores, jax {jax.__version__}, {len(jax.devices())} host device(s)"
 
 
-def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chunk: int = 64,
+def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chunk: int = 256,
               tricks: bool = False, progress=True):
     """The main table (and the tricks table); returns the rows."""
     import jax
@@ -113,7 +113,7 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
                              label="library atan2" if default else "polynomial atan2"))
         finally:
             rotation.POLY_ATAN2 = default
-        for c in (16, 32, 128, 256):
+        for c in (32, 64, 128, 512):
             trows.append(row(model, b, time_s, label=f"chunk {c}", chunk=c))
         print()
         print_table(trows, "what each trick buys (same run)")

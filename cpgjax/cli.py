@@ -103,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--model", default=_default_model(), help="robot description (default: the quadruped)")
     b.add_argument("--batches", default="1,20,256,1024,4096", help="comma-separated batch sizes")
     b.add_argument("--time", type=float, default=2.0, help="simulated seconds per episode (default 2)")
-    b.add_argument("--chunk", type=int, default=64, help="robots per vectorised chunk (default 64)")
+    b.add_argument("--chunk", type=int, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
     b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
     b.set_defaults(func=cmd_bench)

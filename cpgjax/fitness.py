@@ -28,7 +28,7 @@ def instantaneous(v_forward, cos_theta, delta=DEFAULT_DELTA):
 
 
 def make_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,
-                 delta: float = DEFAULT_DELTA, chunk: int = 64, dt: float | None = None):
+                 delta: float = DEFAULT_DELTA, chunk: int = 256, dt: float | None = None):
     """A GA Problem for a `.wl` model: genome = CPG coefficients of every controlled joint."""
     from cpgjax.cpg import sinusoid_genome
     from cpgjax.problem import Problem

@@ -145,7 +145,7 @@ def _chunked(model, coeffs, chunk, **kw):
     return jax.tree.map(lambda a: jnp.moveaxis(a, 0, -2).reshape(a.shape[1:-1] + (-1,)), out)
 
 
-def evaluate(model, coeffs, *, chunk: int = 64, devices=None, **kw):
+def evaluate(model, coeffs, *, chunk: int = 256, devices=None, **kw):
     """Traceable batched evaluation of coeffs [N, n_ctrl, 2K+1] on all local devices.
 
     Pads N to a multiple of ``devices * chunk`` (repeating the last controller), splits the
@@ -171,7 +171,7 @@ def evaluate(model, coeffs, *, chunk: int = 64, devices=None, **kw):
     return jax.tree.map(lambda a: a[:N], out)
 
 
-def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 64):
+def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 256):
     """Host-side convenience: numpy in, numpy out, one compiled program per call signature.
 
     coeffs: [N, n_ctrl, 2K+1] (or [n_ctrl, 2K+1] for one robot).  With ``record=True``

@@ -1,0 +1,48 @@
+"""The four example robots of Appendix A do what the thesis describes."""
+
+import numpy as np
+import pytest
+
+from cpgjax.analysis import feet_down
+from cpgjax.ctl import read_ctl
+from cpgjax.sim.episode import simulate
+from cpgjax.sim.model import load_model
+
+
+def run(name, ctl=True, record=False):
+    m = load_model(f"models/{name}.wl")
+    c = read_ctl(f"models/{name}.ctl", n_dof=m.n_ctrl, harmonics=m.harmonics).coeffs if ctl else \
+        np.zeros((m.n_ctrl, m.n_coeff))
+    return m, simulate(m, c, record=record)
+
+
+def test_quadruped_matches_appendix_c():
+    m = load_model("models/quadruped.wl")
+    assert m.total_mass == pytest.approx(13.8)
+    assert m.n_ctrl == 8 and m.n_genes == 40 and m.mu_static == 2.5
+    assert np.allclose(m.j_lo, -1.5) and np.allclose(m.j_hi, 1.5)
+
+
+def test_car_rolls_down_its_ramp():
+    m, r = run("car", ctl=False, record=True)
+    assert m.n_ctrl == 0 and m.nj == 4
+    assert r["distance"] > 2.0 and not r["fallen"] and not r["diverged"]
+    z = r["traj"]["x"][:, 2, m.track]
+    assert z[-1] < z[0] - 0.4  # it went down
+
+
+def test_worm_crawls():
+    m, r = run("worm")
+    assert m.n_ctrl == 4
+    assert r["distance"] > 0.2 and not r["diverged"]
+
+
+def test_hexapod_walks_with_a_tripod_gait():
+    m, r = run("hexapod", record=True)
+    assert m.n_ctrl == 12
+    assert r["distance"] > 0.4 and not r["fallen"] and not r["diverged"]
+    t = r["traj"]["t"] > 1
+    a = feet_down(m, r["traj"], ["LoAR", "LoCL", "LoPR"], tol=3e-3)[t]
+    b = feet_down(m, r["traj"], ["LoAL", "LoCR", "LoPL"], tol=3e-3)[t]
+    assert np.mean(a + b >= 3) > 0.8  # mostly three or more feet down
+    assert np.corrcoef(a, b)[0, 1] < -0.3  # the two tripods alternate
