@@ -60,7 +60,7 @@ class ObjectDef:
 
 @dataclass(frozen=True)
 class CompoundDef:
-    """``Compound NAME { OBJ OBJ ... Position x y z  Orientation rx ry rz [Fixed] }``: objects welded into one rigid body."""
+    """``Compound NAME { OBJ ... Position x y z  Orientation rx ry rz [Fixed] }``: objects welded into one body."""
 
     name: str
     objects: tuple[str, ...]

@@ -8,8 +8,6 @@ the new velocities (semi-implicit, symplectic Euler); orientations are unit quat
 
 from __future__ import annotations
 
-import jax.numpy as jnp
-
 from cpgjax.sim.rotation import cross, matTvec, matvec, quat_integrate
 
 

@@ -327,9 +327,8 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         j_lo=np.asarray(j_lo, float), j_hi=np.asarray(j_hi, float), j_ctrl=np.asarray(j_ctrl, np.int32),
         j_kp=g[:, 0], j_ki=g[:, 1], j_kd=g[:, 2], j_taumax=g[:, 3], j_q0=np.asarray(j_q0, float),
         j_inv_ieff=np.array([
-            0.0 if (fixed[a] and fixed[b]) else
-            (0.0 if fixed[a] else ax @ inv_inertia[:, :, a] @ ax) + (0.0 if fixed[b] else ax @ inv_inertia[:, :, b] @ ax)
-            for a, b, ax in zip(j_a, j_b, j_axis)]).reshape(-1),
+            sum(0.0 if fixed[k] else ax @ inv_inertia[:, :, k] @ ax for k in (a, b))
+            for a, b, ax in zip(j_a, j_b, j_axis, strict=True)]).reshape(-1),
         ctrl_joint=ctrl_joint,
         gravity=float(desc.gravity), ground_A=float(A), ground_B=float(B),
         mu_static=float(desc.friction),

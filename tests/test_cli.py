@@ -1,0 +1,53 @@
+"""The command line (cpgjax/cli.py): simulate, logs and bad input."""
+
+import numpy as np
+
+from cpgjax.cli import main
+from cpgjax.logs import read_log
+
+
+def test_simulate_trot_prints_the_metrics_and_writes_thesis_logs(tmp_path, capsys):
+    rc = main(["simulate", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--time", "2",
+               "--log", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    for word in ("distance", "speed", "tilt", "fitness"):
+        assert word in out
+    log = tmp_path / "body.log"
+    lines = log.read_text().splitlines()
+    assert lines[0] == "# Log file for compound Body"
+    assert lines[1] == "# quadruped.wl quadruped-trot.ctl"
+    rows = read_log(log)
+    assert rows.shape == (40, 7)  # LogRate 20 for 2 s: T X Y Z theta phi psi
+    np.testing.assert_allclose(np.diff(rows[:, 0]), 0.05, atol=1e-4)
+
+
+def test_malformed_wl_reports_path_and_line(tmp_path, capsys):
+    bad = tmp_path / "bad.wl"
+    bad.write_text("TimeMax 2\nObject A {\n    Type Cube\n    Mass heavy\n    Dimensions .1 .1 .1\n}\n")
+    rc = main(["simulate", str(bad)])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert f"{bad}:4:" in err
+
+
+def test_malformed_ctl_reports_path_and_line(tmp_path, capsys):
+    bad = tmp_path / "bad.ctl"
+    text = open("models/quadruped-trot.ctl").read().splitlines()
+    text[3] = text[3].replace("0.000000", "zero", 1)
+    bad.write_text("\n".join(text) + "\n")
+    rc = main(["simulate", "models/quadruped.wl", "--ctl", str(bad), "--time", "0.1"])
+    err = capsys.readouterr().err
+    assert rc == 2 and f"{bad}:4:" in err
+
+
+def test_wrong_number_of_dofs_in_ctl(tmp_path, capsys):
+    bad = tmp_path / "short.ctl"
+    bad.write_text("0.0\n" + "0 0 0 0 0\n" * 7)
+    rc = main(["simulate", "models/quadruped.wl", "--ctl", str(bad)])
+    assert rc == 2 and str(bad) in capsys.readouterr().err
+
+
+def test_missing_file_is_a_clear_error(capsys):
+    assert main(["simulate", "models/nope.wl"]) == 2
+    assert "nope.wl" in capsys.readouterr().err

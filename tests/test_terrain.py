@@ -1,0 +1,49 @@
+"""Terrain (cpgjax/sim/terrain.py): bilinear heightfields, bumps, ramps, seeded roughness."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from cpgjax.description import TerrainDef
+from cpgjax.sim.terrain import height_and_normal, make_terrain
+
+
+def test_matrix_is_bilinearly_interpolated_with_its_normal():
+    h = ((0.0, 1.0), (2.0, 3.0))  # rows are y
+    t = make_terrain(TerrainDef("matrix", (2, 2, 0.0, 1.0, 0.0, 1.0), h))
+    z, n = height_and_normal(t, jnp.array([0.25, 0.5, 1.0]), jnp.array([0.5, 0.5, 1.0]))
+    np.testing.assert_allclose(np.asarray(z), [0.25 + 1.0, 0.5 + 1.0, 3.0], atol=1e-5)
+    n = np.stack([np.asarray(c) for c in n])
+    expected = np.array([-1.0, -2.0, 1.0]) / np.sqrt(6.0)  # plane z = x + 2y
+    np.testing.assert_allclose(n[:, 0], expected, atol=1e-6)
+
+
+def test_ramp_descends_with_its_slope():
+    t = make_terrain("ramp:0.2")
+    z, _ = height_and_normal(t, jnp.array([0.0, 0.0]), jnp.array([1.0, 2.0]))
+    np.testing.assert_allclose(np.diff(np.asarray(z)), -np.tan(0.2), rtol=1e-5)
+
+
+def test_bump_has_its_height_across_the_path():
+    t = make_terrain("bump:0.02@1.5")
+    z, _ = height_and_normal(t, jnp.array([-1.0, 0.0, 2.0, 0.0]), jnp.array([1.6, 1.7, 1.6, 0.5]))
+    np.testing.assert_allclose(np.asarray(z), [0.02, 0.02, 0.02, 0.0], atol=1e-6)
+
+
+def test_rough_terrain_is_uniform_in_its_range_and_seeded():
+    a, b, c = make_terrain("rough:0.03:0.1:7"), make_terrain("rough:0.03:0.1:7"), make_terrain("rough:0.03:0.1:8")
+    assert np.array_equal(a.heights, b.heights) and not np.array_equal(a.heights, c.heights)
+    assert a.heights.min() >= 0 and a.heights.max() <= 0.03
+    assert abs(a.heights.mean() - 0.015) < 0.001
+
+
+def test_wl_terrain_statements_match_the_cli_syntax():
+    assert make_terrain(TerrainDef("bump", (0.02, 1.5, 0.3))).spec == "bump:0.02@1.5:0.3"
+    assert np.array_equal(make_terrain(TerrainDef("rough", (0.03, 0.1, 7.0))).heights,
+                          make_terrain("rough:0.03:0.1:7").heights)
+
+
+@pytest.mark.parametrize("bad", ["hill:1", "bump:x", "rough:"])
+def test_bad_terrain_text_is_a_clear_error(bad):
+    with pytest.raises(ValueError, match="terrain"):
+        make_terrain(bad)
