@@ -83,6 +83,37 @@ def machine() -> str:
     return f"{cpu}, {os.cpu_count()} cores, jax {jax.__version__}, {len(jax.devices())} host device(s)"
 
 
+def step_cost(model, batch: int = 256) -> dict:
+    """XLA's own count of flops and transcendentals per robot-step (cost analysis of one step)."""
+    import jax
+    import jax.numpy as jnp
+
+    from cpgjax.sim.state import initial_state
+    from cpgjax.sim.step import step
+
+    s = initial_state(model, batch)
+    ctrl = (jnp.zeros((model.n_ctrl, batch)), jnp.zeros((model.n_ctrl, batch)))
+    ca = jax.jit(lambda s, c: step(model, s, c)).lower(s, ctrl).compile().cost_analysis()
+    ca = ca[0] if isinstance(ca, list) else ca
+    return {"flops": ca.get("flops", float("nan")) / batch,
+            "transcendentals": ca.get("transcendentals", float("nan")) / batch}
+
+
+def cpu_peak_gflops() -> tuple[float, str]:
+    """Single-precision peak of all cores: 32 flops/cycle/core (two 256-bit FMA pipes) x clock."""
+    mhz = 0.0
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("cpu MHz"):
+                    mhz = float(line.split(":")[1])
+                    break
+    except OSError:
+        pass
+    n = os.cpu_count() or 1
+    return 32 * mhz * 1e-3 * n, f"{n} cores x {mhz:.0f} MHz x 32 flops/cycle"
+
+
 def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chunk: int = 256,
               tricks: bool = False, progress=True):
     """The main table (and the tricks table); returns the rows."""
@@ -102,6 +133,15 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
             print(f"  batch {b}: {rows[-1]['robot_s_per_s']:,.1f} robot-s/s", flush=True)
     print()
     print_table(rows)
+    cost = step_cost(model)
+    peak, how = cpu_peak_gflops()
+    best = max(r["robot_steps_per_s"] for r in rows)
+    achieved = best * cost["flops"] * 1e-9
+    print(f"\nper robot-step (XLA cost analysis): {cost['flops']:,.0f} flops, "
+          f"{cost['transcendentals']:.0f} transcendentals")
+    if peak > 0:
+        print(f"best rate {best:,.0f} robot-steps/s = {achieved:.1f} GFLOP/s = {100 * achieved / peak:.0f}% of "
+              f"the CPU's fp32 peak ({peak:.0f} GFLOP/s: {how})")
     if tricks:
         b = 256 if 256 in batches else max(batches)
         trows = [row(model, b, time_s, label="all tricks", chunk=chunk)]
