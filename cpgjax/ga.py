@@ -153,7 +153,7 @@ def ranks(fitness: jax.Array) -> jax.Array:
 
 
 def pocket_mask(fitness: jax.Array, pocket) -> jax.Array:
-    """Ch. 4.3.5: True for the best ``pocket`` individuals (all when ``pocket == 0``); ``pocket`` may be traced."""
+    """Ch. 4.3.5: True for the best ``pocket`` individuals (all when ``pocket == 0``); may be traced."""
     return (ranks(fitness) < pocket) | (pocket <= 0)
 
 
@@ -182,9 +182,9 @@ def crossover_pairs(key: jax.Array, weights: jax.Array, mask: jax.Array, n: int,
     An ordered pair (i, j) of the pool (the individuals where ``mask`` is set, i.e. the pocket)
     is drawn with probability ∝ ``w_i + w_j``: with probability 1/2 the first parent is drawn
     ∝ w and the second uniformly from the pool, otherwise the reverse (that mixture has
-    exactly this law: ``P(i, j) = (w_i + w_j) / (2 |pool| sum(w))``).  Parents stay in the pool (drawn with replacement; i = j
-    is allowed and gives a duplicate).  The cut is ``sigma ~ U{1, ..., n_genes}``.
-    Returns ``(first, second, sigma)``, each ``[n]`` int32.
+    exactly this law: ``P(i, j) = (w_i + w_j) / (2 |pool| sum(w))``).  Parents stay in the
+    pool (drawn with replacement; i = j is allowed and gives a duplicate).
+    The cut is ``sigma ~ U{1, ..., n_genes}``.  Returns ``(first, second, sigma)``, each ``[n]`` int32.
     """
     k_coin, k_w, k_u, k_cut = jax.random.split(key, 4)
     by_w = jax.random.choice(k_w, weights.shape[0], (n,), p=_probs(weights))

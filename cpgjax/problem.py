@@ -13,6 +13,7 @@ and by the CLI demo models ``analytic:sphere:G`` and ``analytic:diverging:G`` (s
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -110,11 +111,13 @@ def diverging_problem(n_genes: int, optimum: np.ndarray | None = None, threshold
 ANALYTIC = {"sphere": sphere_problem, "diverging": diverging_problem}
 
 
+@functools.lru_cache(maxsize=32)
 def analytic_problem(spec: str) -> Problem:
     """Parse ``analytic:KIND:G`` (KIND in ``sphere``, ``diverging``) — a test/demo model for the CLI.
 
     ``cpgjax evolve analytic:sphere:40`` runs the GA on :func:`sphere_problem` with 40 genes
-    (8 "joints" x 5 coefficients); no simulator is involved.
+    (8 "joints" x 5 coefficients); no simulator is involved.  Cached: the same spec gives the
+    same object (so repeated runs in one process reuse the compiled generation).
     """
     parts = spec.split(":")
     if len(parts) != 3 or parts[0] != "analytic" or parts[1] not in ANALYTIC:
