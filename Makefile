@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 setup: $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/cpgjax evolve models/quadruped.wl --population 20 --generations 10 --time 5 --pocket 4 \
+	$(BIN)/cpgjax evolve models/quadruped.wl --population 20 --generations 30 --pocket 4 --chunk 5 \
 		--seed 0 --out runs/quickstart.h5 --overwrite
 	$(BIN)/cpgjax plot runs/quickstart.h5 --out runs/quickstart.png
 	$(BIN)/cpgjax best runs/quickstart.h5 --ctl runs/quickstart-best.ctl

@@ -20,7 +20,7 @@ from typing import Any
 GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossover", "mutation", "sigma",
               "init_spread", "selection", "seed", "chunk")
 SEARCH_OPTIONS = ("method", "samples", "batch", "M", "width_end", "seed", "chunk")
-PROBLEM_OPTIONS = ("time", "terrain", "delta")
+PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas")
 
 
 def register(subparsers: Any) -> None:
@@ -36,6 +36,9 @@ def register(subparsers: Any) -> None:
         p.add_argument("--time", type=float, default=None, help="episode length in s (default: the model's)")
         p.add_argument("--terrain", default=None, help="terrain specification (default: the model's)")
         p.add_argument("--delta", type=float, default=None, help="delta of the fitness, eq. 4.5 (default 8)")
+        p.add_argument("--replicas", type=int, default=None,
+                       help="score each controller as the mean of R episodes with genes jittered by 1e-3 "
+                            "(default 1, the thesis; see docs/evolution.md, 'A noisy fitness')")
         p.add_argument("--seed", type=int, default=None, help=f"random seed (default {d.seed})")
         p.add_argument("--chunk", type=int, default=None,
                        help="generations per jitted chunk; a kill loses at most the chunk in flight (default 1)")
@@ -77,6 +80,9 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser("best", help="print the best controller of a run (and write it as a .ctl)")
     p.add_argument("run", metavar="RUN.h5")
     p.add_argument("--ctl", default=None, metavar="OUT.ctl", help="write the controller as a thesis .ctl file")
+    p.add_argument("--round", action="store_true",
+                   help="round to the thesis's 6 decimals (default: exact float32 digits, so that "
+                        "`cpgjax simulate` replays the very controller the GA scored)")
     p.set_defaults(func=cmd_best)
 
     p = subparsers.add_parser("plot", help="fitness per generation of one or more runs (Fig. 6.5 style)")
@@ -93,7 +99,8 @@ def _fail(cmd: str, err: Exception) -> int:
     return 1
 
 
-def make_problem(model: str, *, time: float | None, terrain: str | None, delta: float | None):
+def make_problem(model: str, *, time: float | None, terrain: str | None, delta: float | None,
+                 replicas: int | None = None):
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the CLI's settings in meta."""
     from cpgjax.problem import analytic_problem
 
@@ -105,8 +112,10 @@ def make_problem(model: str, *, time: float | None, terrain: str | None, delta: 
         kw: dict[str, Any] = {"time": time, "terrain": terrain}
         if delta is not None:
             kw["delta"] = delta
+        if replicas is not None:
+            kw["replicas"] = replicas
         problem = make_wl_problem(model, **kw)
-    cli = {"time": time, "terrain": terrain, "delta": delta}
+    cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas}
     return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
 
 
@@ -221,7 +230,7 @@ def cmd_best(args: argparse.Namespace) -> int:
             d = os.path.dirname(args.ctl)
             if d:
                 os.makedirs(d, exist_ok=True)
-            write_ctl(args.ctl, coeffs, fit)
+            write_ctl(args.ctl, coeffs, fit, exact=not args.round)
             print(f"wrote {args.ctl}")
     except (ResultsError, ValueError, FileNotFoundError, OSError, KeyError) as e:
         return _fail("best", e)

@@ -133,20 +133,31 @@ def _f6(v: float) -> str:
     return "%.6f" % (round(float(v), 6) + 0.0)  # + 0.0: no "-0.000000"
 
 
-def format_ctl(coeffs: Any, fitness: float = 0.0) -> str:
-    """The `.ctl` text: ``%.6f`` numbers separated by two spaces, one DOF per line (thesis example)."""
+def _exact(v: float) -> str:
+    """The shortest decimal that reads back as the same float32 (the simulator's precision)."""
+    return np.format_float_positional(np.float32(v), unique=True, trim="0") if v != 0 else "0.0"
+
+
+def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False) -> str:
+    """The `.ctl` text: ``%.6f`` numbers separated by two spaces, one DOF per line (thesis example).
+
+    ``exact=True`` writes each number with as many digits as it takes to read back the same
+    float32: evolved gaits can be chaotic, and a controller rounded to 6 decimals may walk
+    differently from the one the GA scored (docs/evolution.md).
+    """
     c = np.asarray(coeffs, dtype=np.float64)
     if c.ndim != 2 or c.shape[1] % 2 == 0:
         raise ValueError(f"coeffs must be [n_dof, 2K+1], got shape {c.shape}")
     if not (np.all(np.isfinite(c)) and math.isfinite(float(fitness))):
         raise ValueError("coefficients and fitness must be finite to be written to a .ctl file")
-    lines = [_f6(fitness)] + ["  ".join(_f6(v) for v in row) for row in c]
+    fmt = _exact if exact else _f6
+    lines = [_f6(fitness)] + ["  ".join(fmt(v) for v in row) for row in c]
     return "\n".join(lines) + "\n"
 
 
-def write_ctl(path: str | os.PathLike[str], coeffs: Any, fitness: float = 0.0) -> None:
-    """Write a `.ctl` file (see :func:`format_ctl`); values are rounded to 6 decimals, as in the thesis."""
-    text = format_ctl(coeffs, fitness)
+def write_ctl(path: str | os.PathLike[str], coeffs: Any, fitness: float = 0.0, exact: bool = False) -> None:
+    """Write a `.ctl` file (see :func:`format_ctl`); 6 decimals as in the thesis, or ``exact``."""
+    text = format_ctl(coeffs, fitness, exact=exact)
     with open(os.fspath(path), "w", encoding="utf-8") as f:
         f.write(text)
 

@@ -1,0 +1,36 @@
+"""An evolved controller replays exactly: evolve -> best --ctl -> simulate gives the GA's fitness."""
+
+import re
+
+import numpy as np
+
+from cpgjax.cli import main
+from cpgjax.ctl import read_ctl
+from cpgjax.fitness import make_problem
+from cpgjax.results import read_run
+
+
+def test_best_controller_replays_with_the_fitness_the_ga_gave_it(tmp_path, capsys):
+    run = tmp_path / "r.h5"
+    ctl = tmp_path / "best.ctl"
+    assert main(["evolve", "models/quadruped.wl", "--population", "6", "--generations", "2", "--time", "1",
+                 "--out", str(run), "--quiet"]) == 0
+    assert main(["best", str(run), "--ctl", str(ctl)]) == 0
+    capsys.readouterr()
+    _, _, fit, genome = read_run(str(run)).best()
+    c = read_ctl(ctl, n_dof=8, harmonics=2)
+    np.testing.assert_array_equal(c.coeffs.astype(np.float32).reshape(-1), np.asarray(genome, np.float32))
+    assert main(["simulate", "models/quadruped.wl", "--ctl", str(ctl), "--time", "1"]) == 0
+    out = capsys.readouterr().out
+    replay = float(re.search(r"fitness\s+([-+0-9.e]+)", out).group(1))
+    assert abs(replay - fit) < 1e-5, (replay, fit)
+
+
+def test_replicas_average_jittered_episodes():
+    p1 = make_problem("models/quadruped.wl", time=0.5)
+    p3 = make_problem("models/quadruped.wl", time=0.5, replicas=3)
+    g = np.tile(p1.base_genome, (2, 1)).astype(np.float32)
+    f1 = np.asarray(p1.evaluate(g)["fitness"])
+    f3 = np.asarray(p3.evaluate(g)["fitness"])
+    assert f3.shape == (2,) and np.isfinite(f3).all()
+    assert f3[0] == f3[1] and abs(f3[0] - f1[0]) < 0.05
