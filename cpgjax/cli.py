@@ -79,6 +79,28 @@ def cmd_study_dt(args) -> int:
     return 0
 
 
+def cmd_robustness(args) -> int:
+    """Replay a controller with every gene moved by tiny random amounts: how chaotic is its score?"""
+    from cpgjax.sim.episode import simulate
+    from cpgjax.sim.model import load_model
+
+    model = load_model(args.model, terrain=args.terrain)
+    coeffs, name = _load_controller(args, model)
+    rng = np.random.default_rng(args.seed)
+    rows = []
+    for eps in [float(e) for e in args.jitter.split(",")]:
+        C = coeffs[None] + rng.normal(0.0, eps, (args.n,) + coeffs.shape)
+        C[0] = coeffs
+        r = simulate(model, C, time=args.time, delta=args.delta)
+        f = r["fitness"]
+        rows.append((eps, f[0], f.mean(), f.std(), f.min(), f.max(), int(r["fallen"].sum()), int(r["diverged"].sum())))
+    print(f"controller {name}: {args.n} replays per jitter (replay 0 is the controller itself)")
+    print(f"{'jitter':>8}{'itself':>10}{'mean':>10}{'sd':>9}{'min':>10}{'max':>10}{'fell':>6}{'diverged':>10}")
+    for e, f0, m, sd, lo, hi, fell, div in rows:
+        print(f"{e:>8.0e}{f0:>10.4f}{m:>10.4f}{sd:>9.4f}{lo:>10.4f}{hi:>10.4f}{fell:>6}{div:>10}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="cpgjax",
@@ -107,6 +129,17 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
     b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
     b.set_defaults(func=cmd_bench)
+
+    r = sub.add_parser("robustness", help="replay a controller with its genes jittered: mean and spread of fitness")
+    r.add_argument("model", help="robot description (.wl)")
+    r.add_argument("--ctl", required=True, help="controller (.ctl)")
+    r.add_argument("--n", type=int, default=64, help="replays per jitter (default 64)")
+    r.add_argument("--jitter", default="1e-6,1e-4,1e-2", help="standard deviations of the gene offsets")
+    r.add_argument("--time", type=float, help="simulated seconds (default: the file's TimeMax)")
+    r.add_argument("--terrain", help="terrain (default: the file's)")
+    r.add_argument("--delta", type=float, default=8.0)
+    r.add_argument("--seed", type=int, default=0)
+    r.set_defaults(func=cmd_robustness)
 
     d = sub.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
     d.add_argument("--model", default=_default_model())

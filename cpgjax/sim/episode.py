@@ -23,6 +23,14 @@ from cpgjax.sim.rotation import quat_to_mat
 from cpgjax.sim.state import State, initial_state
 from cpgjax.sim.step import point_kinematics, step
 
+# Robots are padded to a multiple of LANES per chunk.  Why: XLA's CPU code computes
+# full SIMD vectors and a scalar (or narrower) tail differently (vectorised vs scalar
+# transcendentals, FMA contraction), so a robot's result could depend on where in the
+# batch it sat.  With every chunk a whole number of 16-float vectors (AVX-512; a
+# multiple of AVX2's 8), every robot runs the same instructions and a batch of N is
+# bitwise equal to N single runs (tests/test_episode.py).
+LANES = 16
+
 LIMIT_POS = 1.0e3  # m
 LIMIT_VEL = 1.0e3  # m/s, rad/s
 
@@ -156,7 +164,7 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, **kw):
     nd = len(devs)
     N = coeffs.shape[0]
     per_dev = -(-N // nd)
-    ch = min(chunk, per_dev)
+    ch = -(-min(chunk, per_dev) // LANES) * LANES
     per_dev = -(-per_dev // ch) * ch
     total = per_dev * nd
     x = jnp.moveaxis(coeffs, 0, -1)  # batch-last
@@ -181,11 +189,16 @@ def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 
     single = c.ndim == 2
     if single:
         c = c[None]
+    n = c.shape[0]
     if record:
+        pad = -(-n // LANES) * LANES - n
+        c = np.concatenate([c, np.repeat(c[-1:], pad, 0)]) if pad else c
         f = jax.jit(lambda cc: rollout(model, jnp.moveaxis(cc, 0, -1), time=time, delta=delta, record=True))
+        out = jax.tree.map(np.asarray, f(c))
+        out = {k: (v[..., :n] if k != "traj" else {kk: (vv[..., :n] if kk != "t" else vv) for kk, vv in v.items()})
+               for k, v in out.items()}
     else:
-        f = _jitted_evaluate(model, time, delta, chunk)
-    out = jax.tree.map(np.asarray, f(c))
+        out = jax.tree.map(np.asarray, _jitted_evaluate(model, time, delta, chunk)(c))
     if single:
         out = jax.tree.map(lambda a: a[..., 0] if a.ndim and a.shape[-1] == 1 else a, out)
     return out
