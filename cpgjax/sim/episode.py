@@ -161,8 +161,10 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, **kw):
     Returns the dict of `rollout` (without trajectories), each entry [N].
     """
     devs = jax.devices() if devices is None else devices
-    nd = len(devs)
     N = coeffs.shape[0]
+    if N <= LANES:  # one SIMD vector of robots: a second device would only compute padding
+        devs = devs[:1]
+    nd = len(devs)
     per_dev = -(-N // nd)
     ch = -(-min(chunk, per_dev) // LANES) * LANES
     per_dev = -(-per_dev // ch) * ch
