@@ -12,16 +12,7 @@ import os
 
 import numpy as np
 
-from cpgjax.sim.rotation import mat_to_euler
-
-
-def quat_to_mat_np(q):
-    w, x, y, z = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
+from cpgjax.sim.rotation import mat_to_euler, quat_to_mat_np
 
 
 def pose_rows(traj, body: int) -> np.ndarray:

@@ -57,6 +57,35 @@ Joint Hinge {{
 """)
 
 
+def rig(limits=(-1.5, 1.5), time=4, servo="60 0 1 17.5"):
+    """An upper leg of the quadruped on a controlled hip, hanging from a fixed block (a test rig)."""
+    return model_from(f"""
+TimeMax {time}
+LogRate 100
+Servo {servo}
+Object Rig {{
+    Type Cube
+    Mass 5
+    Dimensions .1 .1 .1
+    Position 0 0 1
+    Fixed
+    NoContact
+}}
+Object Arm {{
+    Type Cube
+    Mass 0.5
+    Dimensions .016 .035 .15
+    NoContact
+}}
+Joint Hip {{
+    Rig 0 0 -.05
+    Arm 0 0 .065
+    Limits {limits[0]} {limits[1]}
+    ControlX
+}}
+""")
+
+
 def chain(gravity=0.0, contact=False):
     """Three links in a row, two servo-driven joints: a free 'worm' in space."""
     nc = "" if contact else "NoContact"

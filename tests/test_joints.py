@@ -1,7 +1,7 @@
 """Joints (cpgjax/sim/joints.py and servo.py): pivot springs, pendulum, servo, limits."""
 
 import numpy as np
-from simcases import model_from, pendulum
+from simcases import pendulum, rig
 
 from cpgjax.sim.episode import simulate
 
@@ -29,32 +29,7 @@ def test_pendulum_has_the_small_angle_period_of_its_inertia():
 
 
 def test_servo_follows_a_slow_target_on_a_fixed_rig():
-    text = """
-TimeMax 4
-LogRate 100
-Servo 60 0 1 17.5
-Object Rig {
-    Type Cube
-    Mass 5
-    Dimensions .1 .1 .1
-    Position 0 0 1
-    Fixed
-    NoContact
-}
-Object Arm {
-    Type Cube
-    Mass 0.5
-    Dimensions .016 .035 .15
-    NoContact
-}
-Joint Hip {
-    Rig 0 0 -.05
-    Arm 0 0 .065
-    Limits -1.5 1.5
-    ControlX
-}
-"""
-    m = model_from(text)
+    m = rig(limits=(-1.5, 1.5), time=4)
     c = np.array([[0.0, 0.3, 0.0, 0.0, 0.0]])
     r = simulate(m, c, time=4.0, record=True)
     err = np.abs(r["traj"]["angle"][:, 0] - r["traj"]["target"][:, 0])
@@ -63,31 +38,7 @@ Joint Hip {
 
 
 def test_joint_limits_stop_the_joint_near_the_limit():
-    text = """
-TimeMax 2
-LogRate 100
-Object Rig {
-    Type Cube
-    Mass 5
-    Dimensions .1 .1 .1
-    Position 0 0 1
-    Fixed
-    NoContact
-}
-Object Arm {
-    Type Cube
-    Mass 0.5
-    Dimensions .016 .035 .15
-    NoContact
-}
-Joint Hip {
-    Rig 0 0 -.05
-    Arm 0 0 .065
-    Limits -0.5 0.5
-    ControlX
-}
-"""
-    m = model_from(text)
+    m = rig(limits=(-0.5, 0.5), time=2)
     c = np.array([[1.4, 0.0, 0.0, 0.0, 0.0]])  # target beyond the limit
     r = simulate(m, c, time=2.0, record=True)
     final = r["traj"]["angle"][-1, 0]

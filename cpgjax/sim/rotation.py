@@ -126,3 +126,13 @@ def mat_to_quat(R: np.ndarray) -> np.ndarray:
         q = [(R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s]
     q = np.asarray(q)
     return q / np.linalg.norm(q)
+
+
+def quat_to_mat_np(q) -> np.ndarray:
+    """Rotation matrix of quaternion(s) q = (w, x, y, z) for numpy (q may be [4, ...])."""
+    w, x, y, z = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])

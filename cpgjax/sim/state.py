@@ -7,6 +7,8 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.sim.rotation import quat_to_mat_np
+
 
 class State(NamedTuple):
     """Positions, velocities and servo memory of B robots; arrays end with the robot axis B.
@@ -38,18 +40,10 @@ def initial_state(model, batch: int = 1, dtype=jnp.float32) -> State:
     anchors = np.zeros((3, len(model.ct_pt)))
     for k, pt in enumerate(model.ct_pt):
         b = model.pt_body[pt]
-        anchors[:, k] = x0[:, b] + _quat_mat_np(model.q0[:, b]) @ model.pt_local[:, pt]
+        anchors[:, k] = x0[:, b] + quat_to_mat_np(model.q0[:, b]) @ model.pt_local[:, pt]
     return State(
         x=tile(model.x0), q=tile(model.q0), anchor=tile(anchors), v=jnp.zeros((3, nb, batch), dtype),
         w=jnp.zeros((3, nb, batch), dtype), e_int=jnp.zeros((model.n_ctrl, batch), dtype),
         t=jnp.zeros((), dtype),
     )
 
-
-def _quat_mat_np(q):
-    w, x, y, z = q
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
