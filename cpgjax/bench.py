@@ -45,10 +45,29 @@ def measure(model, batch: int, time_s: float, *, chunk: int = 256, devices=None,
     return max(first - run, 0.0), run
 
 
-def row(model, batch, time_s, label="", **kw):
+def measure_vmap(model, batch: int, time_s: float):
+    """(compile_s, run_s) with `jax.vmap` of a one-robot rollout instead of the batch-last layout."""
+    import jax
+    import jax.numpy as jnp
+
+    from cpgjax.sim.episode import rollout
+
+    coeffs = jnp.asarray(_controllers(model, batch), jnp.float32)
+    one = lambda c: rollout(model, c[..., None], time=time_s)  # noqa: E731
+    f = jax.jit(jax.vmap(one))
+    t0 = time.perf_counter()
+    jax.block_until_ready(f(coeffs))
+    first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    jax.block_until_ready(f(coeffs))
+    run = time.perf_counter() - t0
+    return max(first - run, 0.0), run
+
+
+def row(model, batch, time_s, label="", vmap=False, **kw):
     from cpgjax.sim.episode import schedule
 
-    compile_s, run_s = measure(model, batch, time_s, **kw)
+    compile_s, run_s = measure_vmap(model, batch, time_s) if vmap else measure(model, batch, time_s, **kw)
     inner, outer = schedule(model, time_s)
     steps = inner * outer
     T = steps * model.dt
@@ -146,6 +165,11 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
         b = 1024 if 1024 in batches else max(batches)
         trows = [row(model, b, time_s, label="all tricks", chunk=chunk)]
         trows.append(row(model, b, time_s, label="1 host device", chunk=chunk, devices=jax.devices()[:1]))
+        trows.append(row(model, b, time_s, label="vmap of 1 robot, 1 device", vmap=True))
+        from cpgjax.sim.terrain import make_terrain
+
+        rough = model.replace(terrain=make_terrain("rough:0.02"))
+        trows.append(row(rough, b, time_s, label="heightfield (rough:0.02)", chunk=chunk))
         default = rotation.POLY_ATAN2
         rotation.POLY_ATAN2 = not default
         try:
