@@ -183,3 +183,44 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
         print_table(trows, "what each trick buys (same run)")
         rows += trows
     return rows
+
+
+def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 1.0, chunk: int = 256):
+    """The quadruped in the penalty simulator, MJX (fast settings) and MuJoCo C's threaded rollout.
+
+    Each engine at its own stable step (penalty 0.5 ms, MuJoCo/MJX 2 ms), same batch, same
+    controllers, measured one after the other in this run; compile time apart.
+    """
+    import jax
+
+    from cpgjax.mjcf_export import MJ_TIMESTEP, load
+    from cpgjax.reference import mjx_run, mujoco_run
+    from cpgjax.sim.model import load_model
+
+    model = load_model(model_path)
+    print(f"machine: {machine()}")
+    print(f"model: {model_path}, {time_s:g} s episodes; MuJoCo C and MJX at dt {MJ_TIMESTEP:g} s "
+          f"(MJX: 2 solver and 2 line-search iterations), penalty simulator at dt {model.dt:g} s")
+    rows = []
+    mj = load(model)
+    nthreads = os.cpu_count() or 1
+    for b in batches:
+        c = _controllers(model, b)
+        r = row(model, b, time_s, label=f"penalty sim ({len(jax.devices())} dev)", chunk=chunk)
+        rows.append(r)
+        mujoco_run(model, c[:2], time=0.1, mj=mj)  # warm up
+        _, _, wall = mujoco_run(model, c, time=time_s, mj=mj, nthread=nthreads)
+        steps = int(round(time_s / MJ_TIMESTEP))
+        rows.append({"label": f"MuJoCo C rollout ({nthreads} thr)", "batch": b, "dt": MJ_TIMESTEP,
+                     "sim_time": steps * MJ_TIMESTEP, "compile_s": 0.0, "wall_s": wall,
+                     "robot_steps_per_s": b * steps / wall, "robot_s_per_s": b * steps * MJ_TIMESTEP / wall})
+        _, _, comp, run = mjx_run(model, c, time=time_s, fast=True, sample_every=steps)
+        rows.append({"label": "MJX (vmap, jit, CPU)", "batch": b, "dt": MJ_TIMESTEP,
+                     "sim_time": steps * MJ_TIMESTEP, "compile_s": comp, "wall_s": run,
+                     "robot_steps_per_s": b * steps / run, "robot_s_per_s": b * steps * MJ_TIMESTEP / run})
+        pen, mjc, mjx_ = rows[-3]["robot_s_per_s"], rows[-2]["robot_s_per_s"], rows[-1]["robot_s_per_s"]
+        print(f"  batch {b}: penalty {pen:,.0f}, MuJoCo C {mjc:,.0f}, MJX {mjx_:,.0f} robot-s/s "
+              f"(penalty/MJX {pen / mjx_:.1f}x, penalty/MuJoCo C {pen / mjc:.2f}x)", flush=True)
+    print()
+    print_table(rows)
+    return rows

@@ -63,9 +63,9 @@ def cmd_bench(args) -> int:
 
     batches = tuple(int(b) for b in args.batches.split(","))
     if args.against:
-        from cpgjax.bench_mjx import bench_against_mjx, print_rows
+        from cpgjax.bench import bench_against_mjx
 
-        print_rows(bench_against_mjx(args.model, batches=batches, time=args.time))
+        bench_against_mjx(args.model, batches=batches, time_s=args.time, chunk=args.chunk)
         return 0
     run_bench(args.model, batches=batches, time_s=args.time, chunk=args.chunk, tricks=args.tricks)
     return 0
@@ -98,6 +98,46 @@ def cmd_robustness(args) -> int:
     print(f"{'jitter':>8}{'itself':>10}{'mean':>10}{'sd':>9}{'min':>10}{'max':>10}{'fell':>6}{'diverged':>10}")
     for e, f0, m, sd, lo, hi, fell, div in rows:
         print(f"{e:>8.0e}{f0:>10.4f}{m:>10.4f}{sd:>9.4f}{lo:>10.4f}{hi:>10.4f}{fell:>6}{div:>10}")
+    return 0
+
+
+def cmd_export(args) -> int:
+    from cpgjax.mjcf_export import load, to_mjcf
+    from cpgjax.sim.model import load_model
+
+    model = load_model(args.model, terrain=args.terrain)
+    text = to_mjcf(model)
+    out = args.out or os.path.splitext(args.model)[0] + ".xml"
+    with open(out, "w") as f:
+        f.write(text)
+    mj = load(model)  # proves that MuJoCo loads it
+    print(f"wrote {out}: {mj.nbody - 1} bodies, {mj.njnt} joints, {mj.nu} actuators, "
+          f"total mass {mj.body_mass.sum():.3f} kg")
+    return 0
+
+
+def cmd_crosscheck(args) -> int:
+    from cpgjax.crosscheck import controllers, run_crosscheck, table
+    from cpgjax.sim.model import load_model
+
+    model = load_model(args.model, terrain=args.terrain)
+    here = os.path.dirname(os.path.abspath(args.model))
+    trot = os.path.join(here, "quadruped-trot.ctl")
+    base = args.perturb_ctl or (trot if os.path.exists(trot) and model.n_ctrl == 8 else None)
+    coeffs, labels = controllers(model, ctl_files=args.ctl or (), run_files=args.controllers or (),
+                                 n_random=args.random, n_perturbed=args.perturbed if base else 0,
+                                 base_ctl=base, seed=args.seed)
+    if len(coeffs) == 0:
+        raise ValueError("no controllers: give --ctl, --controllers RUN.h5, --random N or --perturbed N")
+    if args.n:
+        coeffs, labels = coeffs[: args.n], labels[: args.n]
+    T = args.time or model.time_max
+    rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, show=args.show,
+                                   out_dir=args.out)
+    engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
+    print(table(rows, summary, engines))
+    if args.out:
+        print(f"\nwrote {args.out}/crosscheck.md, joints.png, cm_path.png")
     return 0
 
 
@@ -149,7 +189,30 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--out", help="write the table as markdown here too")
     d.set_defaults(func=cmd_study_dt)
 
-    for mod in ("cpgjax.cli_evolve", "cpgjax.cli_crosscheck", "cpgjax.cli_sweep"):
+    e = sub.add_parser("export", help="write the model as MJCF for MuJoCo / MJX")
+    e.add_argument("model", help="robot description (.wl)")
+    e.add_argument("--out", help="output .xml (default: beside the model)")
+    e.add_argument("--terrain", help="terrain (default: the file's)")
+    e.set_defaults(func=cmd_export)
+
+    c = sub.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
+    c.add_argument("model", help="robot description (.wl)")
+    c.add_argument("--ctl", nargs="*", help="controllers (.ctl)")
+    c.add_argument("--controllers", nargs="*", metavar="RUN.h5", help="GA runs: their 8 best distinct genomes")
+    c.add_argument("--random", type=int, default=16, help="random controllers in [-0.8, 0.8] (default 16)")
+    c.add_argument("--perturbed", type=int, default=16,
+                   help="the hand-written trot with N(0, 0.1) added to every gene (default 16)")
+    c.add_argument("--perturb-ctl", help="controller to perturb (default models/quadruped-trot.ctl)")
+    c.add_argument("--n", type=int, help="at most this many controllers")
+    c.add_argument("--time", type=float, help="simulated seconds (default: the file's TimeMax)")
+    c.add_argument("--terrain", help="terrain (default: the file's)")
+    c.add_argument("--show", type=int, default=0, help="which controller to plot (index, default 0)")
+    c.add_argument("--no-mjx", action="store_true", help="skip MJX (slow to compile)")
+    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
+    c.set_defaults(func=cmd_crosscheck)
+
+    for mod in ("cpgjax.cli_evolve", "cpgjax.cli_sweep"):
         try:
             module = __import__(mod, fromlist=["register"])
         except ImportError:

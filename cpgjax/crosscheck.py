@@ -1,0 +1,168 @@
+"""`cpgjax crosscheck`: the same open-loop controllers in the penalty simulator, MuJoCo C and MJX.
+
+Per controller: forward distance, mean speed and fitness (eq. 4.6) in each engine; the
+Spearman rank correlation of fitness between engines; and, for one chosen controller,
+the joint angles and the CM path overlaid (thesis Fig. 6.3 and 6.4 style, with MuJoCo in
+the place of the real robot).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from cpgjax.reference import joint_angles, mjx_run, mujoco_run, spearman
+
+ENGINES = ("penalty", "mujoco", "mjx")
+
+
+def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_perturbed: int = 0,
+                base_ctl: str | None = None, seed: int = 0):
+    """(coeffs [N, n_ctrl, 2K+1], labels) from .ctl files, the best of GA runs, random and perturbed ones."""
+    from cpgjax.ctl import read_ctl
+
+    out, labels = [], []
+    for f in ctl_files:
+        out.append(read_ctl(f, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs)
+        labels.append(os.path.basename(f))
+    for f in run_files:
+        from cpgjax.results import read_run
+
+        run = read_run(f)
+        fit = run.valid_fitness()  # [gens, N]
+        genomes = np.asarray(run.genomes)
+        order = np.argsort(-fit.reshape(-1))
+        seen = 0
+        for k in order:
+            g = genomes.reshape(-1, genomes.shape[-1])[k]
+            if any(np.array_equal(g.reshape(model.n_ctrl, -1), c) for c in out):
+                continue
+            out.append(g.reshape(model.n_ctrl, model.n_coeff))
+            labels.append(f"{os.path.basename(f)}#{k}")
+            seen += 1
+            if seen >= 8:
+                break
+    rng = np.random.default_rng(seed)
+    for i in range(n_random):
+        out.append(rng.uniform(-0.8, 0.8, (model.n_ctrl, model.n_coeff)))
+        labels.append(f"random{i}")
+    if n_perturbed and base_ctl:
+        base = read_ctl(base_ctl, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs
+        for i in range(n_perturbed):
+            out.append(np.clip(base + rng.normal(0.0, 0.1, base.shape), -0.8, 0.8))
+            labels.append(f"{os.path.basename(base_ctl)}+N(0,0.1)#{i}")
+    return np.asarray(out, float), labels
+
+
+def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mjx: bool = True,
+                   show: int = 0, out_dir: str | None = None):
+    """Run every engine; returns (rows, summary) and writes table + plots into out_dir."""
+    from cpgjax.sim.episode import simulate
+
+    res = {}
+    pen = simulate(model, coeffs, time=time, delta=delta, record=True)
+    res["penalty"] = pen
+    mj_met, mj_q, _ = mujoco_run(model, coeffs, time=time, delta=delta)
+    res["mujoco"] = mj_met
+    if mjx:
+        mx_met, mx_q, _, _ = mjx_run(model, coeffs, time=time, delta=delta, fast=True, sample_every=25)
+        res["mjx"] = mx_met
+    engines = [e for e in ENGINES if e in res]
+    rows = []
+    for i, lab in enumerate(labels):
+        row = {"controller": lab}
+        for e in engines:
+            for k in ("distance", "speed", "fitness"):
+                row[f"{e}_{k}"] = float(np.asarray(res[e][k])[i])
+            row[f"{e}_fallen"] = bool(np.asarray(res[e]["fallen"])[i])
+        rows.append(row)
+    summary = {"n": len(labels), "time": time}
+    for a, b in (("penalty", "mujoco"), ("penalty", "mjx"), ("mujoco", "mjx")):
+        if a in res and b in res:
+            summary[f"rho_{a}_{b}"] = spearman(res[a]["fitness"], res[b]["fitness"])
+            summary[f"rho_dist_{a}_{b}"] = spearman(res[a]["distance"], res[b]["distance"])
+    if out_dir:
+        os.makedirs(out_dir, exist_ok=True)
+        with open(os.path.join(out_dir, "crosscheck.md"), "w") as f:
+            f.write(table(rows, summary, engines) + "\n")
+        _plots(model, pen, mj_q, show, labels[show], out_dir, mj_dt=None, time=time)
+    return rows, summary
+
+
+def table(rows, summary, engines) -> str:
+    head = "| controller | " + " | ".join(f"{e} dist [m] | {e} fitness" for e in engines) + " |"
+    lines = [head, "|---|" + "---:|---:|" * len(engines)]
+    for r in rows:
+        cells = []
+        for e in engines:
+            fell = " (fell)" if r[f"{e}_fallen"] else ""
+            cells += [f"{r[f'{e}_distance']:+.3f}{fell}", f"{r[f'{e}_fitness']:+.4f}"]
+        lines.append(f"| {r['controller']} | " + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append(f"{summary['n']} controllers, {summary['time']:g} s each.  Spearman rank correlation:")
+    for k, v in summary.items():
+        if k.startswith("rho_") and not k.startswith("rho_dist"):
+            a, b = k[4:].split("_")
+            lines.append(f"- fitness {a} vs {b}: {v:+.3f}  (distance: {summary['rho_dist_' + a + '_' + b]:+.3f})")
+    return "\n".join(lines)
+
+
+def _plots(model, pen, mj_q, i, label, out_dir, mj_dt, time):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cpgjax.mjcf_export import load
+
+    mj = load(model)
+    tr = pen["traj"]
+    t_pen = tr["t"]
+    t_mj = np.arange(mj_q.shape[1]) * mj.opt.timestep
+    ang_mj = joint_angles(model, mj, mj_q)[i]
+    # Fig. 6.3 style: the front right leg's knee and hip
+    names = list(model.joint_names)
+    pick = [n for n in ("KneeAR", "HipAR") if n in names] or names[:2]
+    fig, axes = plt.subplots(len(pick), 1, figsize=(7, 2.6 * len(pick)), sharex=True)
+    axes = np.atleast_1d(axes)
+    for ax, n in zip(axes, pick, strict=True):
+        j = names.index(n)
+        ax.plot(t_pen, tr["angle"][:, j, i], label="penalty simulator")
+        ax.plot(t_mj, ang_mj[:, j], label="MuJoCo", alpha=0.8)
+        c = list(model.ctrl_joint).index(j) if j in model.ctrl_joint else None
+        if c is not None:
+            ax.plot(t_pen, tr["target"][:, c, i], "k:", lw=1, label="CPG target")
+        ax.set_ylabel(f"{n} [rad]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(f"joint angles, {label} (cf. thesis Fig. 6.3)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out_dir, "joints.png"), dpi=90)
+    plt.close(fig)
+    # Fig. 6.4 style: forward position vs time, and the CM path in the plane
+    from cpgjax.reference import metrics_from_qpos
+
+    cm_mj = metrics_from_qpos(model, mj, mj_q[i:i + 1], mj.opt.timestep)["cm"][0]
+    from cpgjax.logs import pose_rows
+
+    single = {k: (v[..., i] if k != "t" else v) for k, v in tr.items()}
+    rows = pose_rows(single, model.track)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))
+    a.plot(rows[:, 0], rows[:, 2], label="penalty simulator")
+    a.plot(t_mj, cm_mj[:, 1], label="MuJoCo")
+    a.set_xlabel("time [s]")
+    a.set_ylabel("Y of the CM [m]")
+    a.legend(fontsize=8)
+    a.grid(alpha=0.3)
+    b.plot(rows[:, 1], rows[:, 2], label="penalty simulator")
+    b.plot(cm_mj[:, 0], cm_mj[:, 1], label="MuJoCo")
+    b.set_xlabel("X [m]")
+    b.set_ylabel("Y [m]")
+    b.grid(alpha=0.3)
+    b.set_aspect("equal", adjustable="datalim")
+    fig.suptitle(f"CM path, {label} (cf. thesis Fig. 6.4)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out_dir, "cm_path.png"), dpi=90)
+    plt.close(fig)

@@ -1,0 +1,158 @@
+"""Export a `.wl` model to MJCF, for MuJoCo (C) and MJX (the independent reference engine).
+
+How the penalty model maps onto MuJoCo's:
+
+- bodies: the kinematic tree of the joints (MuJoCo needs one); root bodies get a free
+  joint (or none when ``Fixed``); each body's frame is the `.wl` frame, its ``inertial``
+  the same mass, CM and full inertia tensor;
+- joints: hinges at the second body's pivot, about the joint axis, with the same limits
+  (MuJoCo enforces them as constraints, we as stiff penalty torques);
+- servo: a ``position`` actuator per controlled joint with the same kp, kv = kd and force
+  range +-tau_max.  MuJoCo's is ``kp (u - q) - kv qdot``; ours has ``kd (q*' - qdot)``: feeding
+  ``u = q* + (kd/kp) q*'`` makes them equal below saturation (see ``servo_ctrl``);
+- contact: a sphere of ``CONTACT_RADIUS`` at each contact vertex (MuJoCo collides geoms,
+  not points), the same friction coefficient, and ``solref = -A -B`` (MuJoCo's direct
+  stiffness/damping form) so the ground is about as stiff as eq. 3.7's;
+- terrain: a plane when flat, else an ``hfield`` with the same heights;
+- looks: the objects' boxes/cylinders as visual geoms (no contact, no mass).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
+
+CONTACT_RADIUS = 0.002  # m
+MJ_TIMESTEP = 0.002  # s: MuJoCo's default step, stable for this robot
+
+
+def _f(v) -> str:
+    return " ".join(f"{float(x):.9g}" for x in np.ravel(v))
+
+
+def to_mjcf(model, *, timestep: float = MJ_TIMESTEP) -> str:
+    """MJCF text of a cpgjax Model (built from a `.wl` Description)."""
+    desc = model.description
+    root = ET.Element("mujoco", model=desc.path.rsplit("/", 1)[-1] if desc else "cpgjax")
+    ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
+    ET.SubElement(root, "option", timestep=f"{timestep:g}", gravity=f"0 0 {-model.gravity:g}",
+                  integrator="implicitfast")
+    default = ET.SubElement(root, "default")
+    ET.SubElement(default, "geom", contype="0", conaffinity="0", group="1", density="0")
+    mu = model.mu_static
+    solref = f"{-model.ground_A:g} {-model.ground_B:g}"
+    asset = ET.SubElement(root, "asset")
+    world = ET.SubElement(root, "worldbody")
+    ET.SubElement(world, "light", pos="0 0 3", dir="0 0 -1")
+    t = model.terrain
+    if t.flat:
+        ET.SubElement(world, "geom", name="ground", type="plane", size="20 20 0.1", contype="1",
+                      conaffinity="1", friction=f"{mu:g} 0.005 0.0001", solref=solref, rgba=".8 .8 .8 1")
+    else:
+        ny, nx = t.heights.shape
+        hmin, hmax = float(t.heights.min()), float(t.heights.max())
+        span = max(hmax - hmin, 1e-6)
+        ET.SubElement(asset, "hfield", name="terrain", nrow=str(ny), ncol=str(nx),
+                      size=f"{t.dx * (nx - 1) / 2:g} {t.dy * (ny - 1) / 2:g} {span:g} 0.1",
+                      elevation=_f((t.heights - hmin) / span))
+        cx, cy = t.x0 + t.dx * (nx - 1) / 2, t.y0 + t.dy * (ny - 1) / 2
+        ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain", pos=f"{cx:g} {cy:g} {hmin:g}",
+                      contype="1", conaffinity="1", friction=f"{mu:g} 0.005 0.0001", solref=solref)
+
+    children = {int(b): j for j, b in enumerate(model.j_b)}
+    kids: dict[int, list[int]] = {}
+    for j, a in enumerate(model.j_a):
+        kids.setdefault(int(a), []).append(j)
+
+    def frame_pose(i):
+        R = _quat_mat(model.q0[:, i])
+        return model.x0[:, i] - R @ model.cm_local[:, i], R
+
+    def add_body(parent, i):
+        name = model.body_names[i]
+        if i in children:
+            j = children[i]
+            jd = desc.joints[j]
+            pos = np.asarray(jd.pivot_a) - np.asarray(jd.pivot_b)  # design pose: same orientation as a
+            el = ET.SubElement(parent, "body", name=name, pos=_f(pos))
+            lo, hi = model.j_lo[j], model.j_hi[j]
+            attrs = {"name": model.joint_names[j], "type": "hinge", "pos": _f(jd.pivot_b),
+                     "axis": _f(model.j_axis[:, j])}
+            if np.isfinite(lo) and np.isfinite(hi):
+                attrs["range"] = f"{lo:g} {hi:g}"
+            ET.SubElement(el, "joint", **attrs)
+        else:
+            p, R = frame_pose(i)
+            el = ET.SubElement(parent, "body", name=name, pos=_f(p), quat=_f(mat_to_quat(R)))
+            if not model.fixed[i]:
+                ET.SubElement(el, "freejoint", name=f"{name}_free")
+        I = model.inertia[:, :, i]
+        ET.SubElement(el, "inertial", pos=_f(model.cm_local[:, i]), mass=f"{model.mass[i]:.9g}",
+                      fullinertia=_f([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]]))
+        _visuals(el, desc, name)
+        for k, pt in enumerate(model.ct_pt):
+            if model.pt_body[pt] == i:
+                ET.SubElement(el, "geom", name=f"{name}_c{k}", type="sphere", size=f"{CONTACT_RADIUS:g}",
+                              pos=_f(model.pt_local[:, pt] + model.cm_local[:, i]), contype="1", conaffinity="0",
+                              friction=f"{mu:g} 0.005 0.0001", solref=solref, group="3")
+        for j in kids.get(i, []):
+            add_body(el, int(model.j_b[j]))
+
+    for i in range(model.nb):
+        if i not in children:
+            add_body(world, i)
+    act = ET.SubElement(root, "actuator")
+    for c, j in enumerate(model.ctrl_joint):
+        ET.SubElement(act, "position", name=f"servo{c}", joint=model.joint_names[j], kp=f"{model.j_kp[j]:g}",
+                      kv=f"{model.j_kd[j]:g}", forcerange=f"{-model.j_taumax[j]:g} {model.j_taumax[j]:g}",
+                      ctrlrange="-10 10")
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode")
+
+
+def _visuals(el, desc, body_name):
+    if desc is None:
+        return
+    members = desc.compounds[body_name].objects if body_name in desc.compounds else (body_name,)
+    for m in members:
+        o = desc.objects[m]
+        inside = body_name in desc.compounds
+        pos = _f(o.position) if inside else "0 0 0"
+        quat = _f(mat_to_quat(euler_to_mat(*o.orientation))) if inside else "1 0 0 0"
+        t = o.type.lower()
+        if t == "cube":
+            ET.SubElement(el, "geom", type="box", size=_f(np.asarray(o.dimensions) / 2), pos=pos, quat=quat)
+        elif t == "cylinder":
+            r, length = o.dimensions
+            q = mat_to_quat(euler_to_mat(*o.orientation) @ euler_to_mat(0, np.pi / 2, 0)) if inside else \
+                mat_to_quat(euler_to_mat(0, np.pi / 2, 0))
+            ET.SubElement(el, "geom", type="cylinder", size=f"{r:g} {length / 2:g}", pos=pos, quat=_f(q))
+        else:
+            ET.SubElement(el, "geom", type="sphere", size=f"{o.dimensions[0]:g}", pos=pos, quat=quat)
+
+
+def _quat_mat(q):
+    from cpgjax.sim.rotation import quat_to_mat_np
+
+    return quat_to_mat_np(q)
+
+
+def initial_qpos(model, mj) -> np.ndarray:
+    """qpos0 of the exported model with the `.wl` initial joint angles."""
+    import mujoco
+
+    q = mj.qpos0.copy()
+    for j, name in enumerate(model.joint_names):
+        jid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_JOINT, name)
+        q[mj.jnt_qposadr[jid]] = model.j_q0[j]
+    return q
+
+
+def load(model, **kw):
+    """A ``mujoco.MjModel`` of a cpgjax Model."""
+    import mujoco
+
+    return mujoco.MjModel.from_xml_string(to_mjcf(model, **kw))
