@@ -1,0 +1,156 @@
+"""The ``sweep`` and ``report`` subcommands of ``cpgjax`` (see ``docs/sweeps.md``).
+
+``cpgjax sweep MODEL.wl --gamma 0,0.01,0.1,1 --pocket 0,4 [--crossover off,on] [--population 20]
+[--seeds 5] [--generations 150] [--baselines random,amc3,amc5,amc10] --out runs/NAME/`` runs every
+combination and seed batched into one XLA program (:mod:`cpgjax.sweep`); ``--preset full|tiny``
+runs the thesis experiment of Fig. 6.5-6.12 instead.  ``cpgjax report runs/NAME/`` writes
+``runs/NAME/report.md`` (final fitness per cell, mean ± sd over seeds, and the thesis's claims
+of Ch. 6.2-6.3 checked) and prints it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from typing import Any
+
+
+def _floats(s: str) -> list[float]:
+    return [float(x) for x in s.split(",") if x.strip()]
+
+
+def _ints(s: str) -> list[int]:
+    return [int(x) for x in s.split(",") if x.strip()]
+
+
+def _bools(s: str) -> list[bool]:
+    out = []
+    for x in s.split(","):
+        x = x.strip().lower()
+        if x in ("on", "true", "1", "yes"):
+            out.append(True)
+        elif x in ("off", "false", "0", "no"):
+            out.append(False)
+        elif x:
+            raise argparse.ArgumentTypeError(f"cross-over must be on/off, got {x!r}")
+    return out
+
+
+def _seeds(s: str) -> list[int]:
+    """``5`` = seeds 0..4; ``3,7,9`` = those seeds; ``10:15`` = 10..14."""
+    if "," in s:
+        return _ints(s)
+    if ":" in s:
+        a, b = s.split(":")
+        return list(range(int(a), int(b)))
+    return list(range(int(s)))
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "sweep", help="many GA / baseline runs (settings x seeds) batched into one XLA program",
+        description="Run every combination of the listed settings for every seed, batched into one jitted "
+                    "program (one simulator call per generation for all runs); one HDF5 per run under "
+                    "OUT/<cell>/s<seed>.h5; resumable (complete runs are skipped, partial ones continued).")
+    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl) or analytic:sphere:G (test/demo)")
+    p.add_argument("--out", required=True, help="sweep directory (runs/NAME/)")
+    p.add_argument("--preset", choices=("full", "tiny"), default=None,
+                   help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.sweep.SCALES); other grid options ignored")
+    p.add_argument("--gamma", type=_floats, default=[0.0], help="comma list of gamma (eq. 6.1), default 0")
+    p.add_argument("--pocket", type=_ints, default=[0], help="comma list of pocket sizes, default 0")
+    p.add_argument("--crossover", type=_bools, default=[False], help="comma list of on/off, default off")
+    p.add_argument("--population", type=_ints, default=[20], help="comma list of population sizes, default 20")
+    p.add_argument("--generations", type=int, default=150)
+    p.add_argument("--mu-max", type=float, default=0.2)
+    p.add_argument("--mutation", default=None, help="gauss|redraw (default gauss)")
+    p.add_argument("--sigma", type=float, default=None)
+    p.add_argument("--selection", default=None, help="clip|shift (default clip)")
+    p.add_argument("--no-ga", action="store_true", help="baselines only")
+    p.add_argument("--baselines", default="", help="comma list of random, amc3, amc5, amc10, ... (default none)")
+    p.add_argument("--samples", type=int, default=None, help="baseline budget (default population x generations)")
+    p.add_argument("--seeds", type=_seeds, default=list(range(5)), help="5 (= 0..4), a comma list or A:B")
+    p.add_argument("--time", type=float, default=None, help="episode length in s (default: the model's)")
+    p.add_argument("--terrain", default=None)
+    p.add_argument("--delta", type=float, default=None)
+    p.add_argument("--chunk", type=int, default=1, help="generations per jitted chunk (default 1)")
+    p.add_argument("--group", choices=("all", "kind"), default="all",
+                   help="all runs in one program (default) or one program per group of same-shaped runs")
+    p.add_argument("--overwrite", action="store_true", help="start every run anew")
+    p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=cmd_sweep)
+
+    p = subparsers.add_parser("report", help="summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)")
+    p.add_argument("sweep", metavar="runs/NAME/")
+    p.add_argument("--out", default=None, help="markdown file (default runs/NAME/report.md)")
+    p.set_defaults(func=cmd_report)
+
+
+def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
+    """The runs and the problem settings the arguments ask for."""
+    from cpgjax import sweep
+
+    problem_args: dict[str, Any] = {"model": args.model, "time": args.time, "terrain": args.terrain,
+                                    "delta": args.delta}
+    if args.preset:
+        s = sweep.SCALES[args.preset]
+        cells = sweep.thesis_cells(args.preset)
+        if args.time is None:
+            problem_args["time"] = s["time"]
+        seeds = list(range(s["seeds"])) if args.seeds == list(range(5)) else args.seeds
+        return sweep.plan(args.out, cells, seeds, chunk=args.chunk), problem_args
+    extra = {k: getattr(args, k) for k in ("mutation", "sigma", "selection") if getattr(args, k) is not None}
+    cells: list = []
+    if not args.no_ga:
+        cells += sweep.ga_grid(gamma=args.gamma, pocket=args.pocket, crossover=args.crossover,
+                               population=args.population, generations=args.generations, mu_max=args.mu_max,
+                               **extra)
+    if args.baselines:
+        samples = args.samples or args.population[0] * args.generations
+        cells += sweep.baseline_cells(args.baselines.split(","), samples=samples, batch=args.population[0])
+    if not cells:
+        raise ValueError("nothing to run (--no-ga without --baselines)")
+    return sweep.plan(args.out, cells, args.seeds, chunk=args.chunk), problem_args
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from cpgjax import sweep
+    from cpgjax.results import ResultsError
+
+    try:
+        specs, pa = build_specs(args)
+        if args.dry_run:
+            for s in specs:
+                print(f"{s.path}  {s.kind}  seed {s.seed}")
+            print(f"{len(specs)} runs, {sweep.total_batch(specs)} evaluations per sweep generation")
+            return 0
+        problem = sweep.make_problem(pa, batch=sweep.total_batch(specs))
+        sweep.write_manifest(args.out, specs, pa)
+        summary = sweep.run_sweep(problem, specs, chunk=args.chunk, overwrite=args.overwrite,
+                                  progress=not args.quiet, group=args.group)
+    except (ResultsError, ValueError, FileNotFoundError, OSError) as e:
+        print(f"cpgjax sweep: error: {e}", file=sys.stderr)
+        return 1
+    print(f"{args.out}: {summary['runs']} runs ({summary['skipped']} already complete), "
+          f"{summary['evaluations']} evaluations in {summary['wall_time']:.1f} s "
+          f"(compile {summary['compile_time']:.1f} s), {summary['evals_per_second']:.4g} evaluations/s")
+    with open(os.path.join(args.out, "sweep-timing.jsonl"), "a") as f:
+        f.write(json.dumps({**summary, "argv": sys.argv[1:]}) + "\n")
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from cpgjax.results import ResultsError
+    from cpgjax.sweep import write_report
+
+    try:
+        out = args.out or os.path.join(args.sweep, "report.md")
+        text = write_report(args.sweep, out)
+    except (ResultsError, ValueError, FileNotFoundError, OSError) as e:
+        print(f"cpgjax report: error: {e}", file=sys.stderr)
+        return 1
+    print(text)
+    print(f"wrote {out}")
+    return 0

@@ -1,0 +1,179 @@
+"""Sweeps (cpgjax.sweep, cpgjax sweep / report): batching must not change results; resume; figures; report."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from cpgjax import cli, sweep
+from cpgjax.plots import thesis
+from cpgjax.results import ResultsError, read_run
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+WL = os.path.join(ROOT, "models", "quadruped.wl")
+# the quadruped, short episodes: the simulator's result for a robot does not depend on its batch
+QUAD = ["--time", "0.5", "--population", "6", "--generations", "3"]
+
+
+def same_rows(a, b, n=None):
+    n = n if n is not None else max(a.completed, b.completed)
+    assert a.completed >= n and b.completed >= n
+    for name in ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate"):
+        np.testing.assert_array_equal(getattr(a, name)[:n], getattr(b, name)[:n], err_msg=name)
+    for group in ("metrics", "state"):
+        ga_, gb = getattr(a, group), getattr(b, group)
+        assert set(ga_) == set(gb)
+        for k in ga_:
+            np.testing.assert_array_equal(ga_[k][:n], gb[k][:n], err_msg=f"{group}/{k}")
+
+
+@pytest.fixture(scope="module")
+def quad_sweep(tmp_path_factory):
+    """A 2 x 2 sweep (pocket 0/2 x cross-over off/on, gamma 0.1) x 2 seeds, plus random and amc3, one program."""
+    out = str(tmp_path_factory.mktemp("sweep") / "quad")
+    rc = cli.main(["sweep", WL, *QUAD, "--gamma", "0.1", "--pocket", "0,2", "--crossover", "off,on",
+                   "--seeds", "2", "--baselines", "random,amc3", "--out", out, "--quiet"])
+    assert rc == 0
+    return out
+
+
+def test_layout_and_manifest(quad_sweep):
+    cells = sweep.find_runs(quad_sweep)
+    assert sorted(cells) == ["amc_M3", "ga_n6_mu0.2_g0.1_p0_xoff", "ga_n6_mu0.2_g0.1_p0_xon",
+                             "ga_n6_mu0.2_g0.1_p2_xoff", "ga_n6_mu0.2_g0.1_p2_xon", "random"]
+    assert all(len(v) == 2 for v in cells.values())
+    man = json.load(open(os.path.join(quad_sweep, sweep.MANIFEST)))
+    assert len(man["runs"]) == 12 and man["problem"]["time"] == 0.5
+    run = read_run(cells["ga_n6_mu0.2_g0.1_p2_xon"][1])
+    assert run.kind == "ga" and run.completed == 3 and run.config["crossover"] and run.config["seed"] == 1
+    assert run.fitness.shape == (3, 6) and run.genomes.shape == (3, 6, 40)
+
+
+def test_sweep_equals_runs_made_one_by_one_with_cpgjax_evolve(quad_sweep, tmp_path):
+    """Batching (4 GA settings x 2 seeds and the baselines in one program) changes no number."""
+    for pocket in (0, 2):
+        for xo in ("--no-crossover", "--crossover"):
+            for seed in (0, 1):
+                single = str(tmp_path / f"p{pocket}{xo}{seed}.h5")
+                assert cli.main(["evolve", WL, *QUAD, "--gamma", "0.1", "--pocket", str(pocket), xo,
+                                 "--seed", str(seed), "--out", single, "--quiet"]) == 0
+                cell = f"ga_n6_mu0.2_g0.1_p{pocket}_x{'on' if xo == '--crossover' else 'off'}"
+                same_rows(read_run(os.path.join(quad_sweep, cell, f"s{seed}.h5")), read_run(single))
+
+
+def test_baselines_propose_as_cpgjax_search_and_score_their_genomes(quad_sweep, tmp_path):
+    """Random search and amc in a sweep draw the genomes `cpgjax search` draws; each stored fitness is
+    exactly the simulator's for the stored genome (re-evaluated here in a batch of its own)."""
+    import jax
+    import jax.numpy as jnp
+
+    problem = sweep.make_problem({"model": WL, "time": 0.5})
+    evaluate = jax.jit(problem.evaluate)
+    for method, extra, cell in (("random", [], "random"), ("amc", ["--M", "3"], "amc_M3")):
+        single = str(tmp_path / f"{cell}.h5")
+        assert cli.main(["search", WL, "--time", "0.5", "--method", method, *extra, "--samples", "18",
+                         "--batch", "6", "--seed", "1", "--out", single, "--quiet"]) == 0
+        a, b = read_run(os.path.join(quad_sweep, cell, "s1.h5")), read_run(single)
+        np.testing.assert_array_equal(a.genomes[0], b.genomes[0])   # generation 0 does not depend on fitness
+        for gen in range(a.completed):
+            f = np.asarray(evaluate(jnp.asarray(a.genomes[gen]))["fitness"])
+            np.testing.assert_array_equal(f, a.fitness[gen])
+
+
+def test_resume_after_interruption_equals_uninterrupted(quad_sweep, tmp_path):
+    out = str(tmp_path / "resumed")
+    args = ["sweep", WL, *QUAD, "--gamma", "0.1", "--pocket", "0,2", "--crossover", "off,on", "--seeds", "2",
+            "--baselines", "random,amc3", "--out", out, "--quiet"]
+    specs = sweep.plan(out, sweep.ga_grid(gamma=(0.1,), pocket=(0, 2), crossover=(False, True), population=(6,),
+                                          generations=3)
+                       + sweep.baseline_cells(["random", "amc3"], samples=18, batch=6), [0, 1])
+    problem = sweep.make_problem({"model": WL, "time": 0.5, "terrain": None, "delta": None})
+    s = sweep.run_sweep(problem, specs, progress=False, stop_after=1)        # interrupted after 1 generation
+    assert s["evaluations"] == sum(sp.cfg.population for sp in specs)
+    assert not sweep.complete(specs)
+    # one run further behind (a kill during its first write), one already complete (a previous sweep)
+    with h5py.File(specs[0].path, "a") as f:
+        f.attrs["completed"] = 0
+    shutil.copy(os.path.join(quad_sweep, specs[3].cell, "s1.h5"), specs[3].path)
+    assert cli.main(args) == 0
+    assert sweep.complete(specs)
+    for sp in specs:
+        same_rows(read_run(sp.path), read_run(os.path.join(quad_sweep, sp.cell, os.path.basename(sp.path))))
+    # a complete sweep is skipped as a whole
+    s = sweep.run_sweep(problem, specs, progress=False)
+    assert s["skipped"] == len(specs) and s["evaluations"] == 0
+
+
+def test_mismatching_settings_are_refused(tmp_path):
+    out = str(tmp_path / "s")
+    assert cli.main(["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "1",
+                     "--out", out, "--quiet"]) == 0
+    run = os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff", "s0.h5")
+    with h5py.File(run, "a") as f:              # pretend it was made with another init spread
+        cfg = json.loads(f.attrs["config"])
+        cfg["init_spread"] = 0.3
+        f.attrs["config"] = json.dumps(cfg)
+    assert cli.main(["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "1",
+                     "--out", out, "--quiet"]) == 1
+    with pytest.raises(ResultsError):
+        sweep.run_sweep(sweep.make_problem({"model": "analytic:sphere:10"}),
+                        sweep.plan(out, sweep.ga_grid(population=(4,), generations=2), [0]), progress=False)
+
+
+def test_generations_can_be_extended(tmp_path):
+    out = str(tmp_path / "s")
+    base = ["sweep", "analytic:sphere:10", "--population", "4", "--seeds", "2", "--gamma", "0,1", "--out", out,
+            "--quiet"]
+    assert cli.main([*base, "--generations", "2"]) == 0
+    assert cli.main([*base, "--generations", "5"]) == 0
+    for files in sweep.find_runs(out).values():
+        for p in files:
+            assert read_run(p).completed == 5
+
+
+def test_cpgjax_best_plot_and_report_on_cells(quad_sweep, tmp_path, capsys):
+    run = os.path.join(quad_sweep, "ga_n6_mu0.2_g0.1_p2_xoff", "s0.h5")
+    assert cli.main(["best", run, "--ctl", str(tmp_path / "b.ctl")]) == 0
+    assert cli.main(["plot", run, os.path.join(quad_sweep, "random", "s0.h5"), "--out", str(tmp_path / "p.png")]) == 0
+    assert os.path.getsize(tmp_path / "p.png") > 0
+    assert cli.main(["report", quad_sweep, "--out", str(tmp_path / "r.md")]) == 0
+    text = open(tmp_path / "r.md").read()
+    assert "| ga |" in text and "| random |" in text and "| amc |" in text
+    for claim in ("more than doubles", "Cross-over does not improve", "half the GA", "factor of 2", "positive mean"):
+        assert claim in text, claim
+
+
+def test_every_thesis_figure(quad_sweep):
+    ga_all = sweep.select(quad_sweep, "ga")
+    assert len(ga_all) == 8 and len(sweep.select(quad_sweep, "ga", pocket=2, crossover=True)) == 2
+    cells = thesis.load_cells(ga_all)
+    assert len(cells) == 4 and all(c.fitness.shape == (2, 3, 6) for c in cells)
+    c = cells[0]
+    np.testing.assert_array_equal(c.best_so_far()[:, -1], np.nanmax(c.fitness, axis=(1, 2)))
+    figs = [thesis.fig_6_5(sweep.select(quad_sweep, "ga", pocket=0, crossover=False)),
+            thesis.fig_6_6(paths=ga_all, generations=3),
+            thesis.fig_6_7(sweep.select(quad_sweep, "ga", pocket=0)),
+            thesis.fig_6_8(sweep.select(quad_sweep, "ga", pocket=2, crossover=False)),
+            thesis.fig_6_9(sweep.select(quad_sweep, "ga", pocket=2, crossover=True)),
+            thesis.fig_6_10(sweep.select(quad_sweep, "random")),
+            thesis.fig_6_11(sweep.select(quad_sweep, "amc")),
+            thesis.fig_6_12(ga_all, sweep.select(quad_sweep, "random") + sweep.select(quad_sweep, "amc"))]
+    for f in figs:
+        assert f.axes and f.canvas is not None
+        f.canvas.draw()
+    with pytest.raises(ValueError):
+        thesis.fig_6_10(ga_all)
+
+
+def test_eval_chunk_pads_little():
+    for n in (6, 20, 100, 1200, 1605, 4000):
+        ch = sweep.eval_chunk(n, devices=2)
+        assert ch % 16 == 0 and ch <= 256
+        per_dev = -(-n // 2)
+        padded = -(-per_dev // ch) * ch
+        assert padded - per_dev < max(16 * (-(-per_dev // 256)), 16)
