@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint bench setup clean
+.PHONY: run test lint bench thesis setup clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -30,6 +30,13 @@ test: $(STAMP) lint
 
 bench: $(STAMP)
 	$(BIN)/cpgjax bench
+
+# the thesis's evolution experiment (Fig. 6.5-6.12), 5 seeds, about 40 minutes on 2 cores; resumable
+thesis: $(STAMP)
+	$(BIN)/cpgjax sweep models/quadruped.wl --preset full --out runs/thesis
+	$(BIN)/cpgjax notebook notebooks/thesis_figures.ipynb --scale full --out runs/thesis/thesis_figures.ipynb
+	$(BIN)/cpgjax report runs/thesis > /dev/null
+	@echo "figures: docs/figures/fig-6-*.png   claims table: runs/thesis/report.md"
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -224,3 +224,61 @@ def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 
     print()
     print_table(rows)
     return rows
+
+
+def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, seeds: int = 5,
+                preset: str = "full", progress: bool = True) -> dict:
+    """Evaluations per second of one GA run against a sweep of the thesis experiment, side by side.
+
+    (1) one GA run as ``cpgjax evolve`` makes it (population 20, pocket 4), (2) the cells of
+    ``cpgjax sweep --preset PRESET`` (12 GA settings and the 4 baselines) x ``seeds``, all in one
+    XLA program, both for ``generations`` generations of ``time_s`` s episodes.  Compile time
+    apart; "cores busy" is the process's CPU seconds per wall second (2 = both cores of this machine).
+    """
+    import dataclasses
+    import tempfile
+
+    import jax
+
+    from cpgjax import evolve, ga, sweep
+
+    print(f"machine: {machine()}, {len(jax.devices())} host devices")
+    print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run")
+    pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None}
+    cells = []
+    for c in sweep.thesis_cells(preset):
+        if isinstance(c, ga.GAConfig):
+            cells.append(dataclasses.replace(c, generations=generations))
+        else:
+            cells.append(dataclasses.replace(c, samples=c.batch * generations))
+    rows = []
+
+    problem = sweep.make_problem(pa)
+    cfg = ga.GAConfig(population=20, generations=generations, pocket=4, seed=0)
+    first = evolve.run_ga(problem, cfg)                 # compiles (the chunk function is cached)
+    c0, t0 = time.process_time(), time.perf_counter()
+    s = evolve.run_ga(problem, cfg)
+    busy = (time.process_time() - c0) / (time.perf_counter() - t0)
+    compile_s = first["compile_time"] + first["wall_time_this_call"] - s["wall_time_this_call"]
+    rows.append({"label": "one GA run (cpgjax evolve)", "runs": 1, "batch": 20,
+                 "evals_s": s["evals_per_second"], "cores": busy, "compile_s": compile_s})
+    if progress:
+        print(f"  one run: {s['evals_per_second']:.1f} evaluations/s", flush=True)
+
+    with tempfile.TemporaryDirectory() as d:
+        specs = sweep.plan(d, cells, range(seeds))
+        batch = sweep.total_batch(specs)
+        problem = sweep.make_problem(pa, batch=batch)
+        s = sweep.run_sweep(problem, specs, progress=progress)
+    rows.append({"label": f"sweep, {len(specs)} runs in one program", "runs": len(specs), "batch": batch,
+                 "evals_s": s["evals_per_second"], "cores": s["cores_busy"], "compile_s": s["compile_time"]})
+    print()
+    print("| what | runs | robots per generation | compile [s] | evaluations/s | "
+          "simulated robot-s per wall s | cores busy |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        print(f"| {r['label']} | {r['runs']} | {r['batch']} | {r['compile_s']:.1f} | {r['evals_s']:,.1f} | "
+              f"{r['evals_s'] * time_s:,.0f} | {r['cores']:.2f} |")
+    ratio = rows[1]["evals_s"] / rows[0]["evals_s"]
+    print(f"\nsweep / one run: {ratio:.2f}x evaluations per second")
+    return {"rows": rows, "ratio": ratio}

@@ -62,6 +62,11 @@ def cmd_bench(args) -> int:
     from cpgjax.bench import run_bench
 
     batches = tuple(int(b) for b in args.batches.split(","))
+    if args.sweep:
+        from cpgjax.bench import bench_sweep
+
+        bench_sweep(args.model, time_s=args.time, generations=args.generations, seeds=args.seeds)
+        return 0
     if args.against:
         from cpgjax.bench import bench_against_mjx
 
@@ -168,6 +173,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--chunk", type=int, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
     b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
+    b.add_argument("--sweep", action="store_true",
+                   help="evaluations/s of one GA run vs the thesis sweep (cpgjax sweep --preset full) in one program")
+    b.add_argument("--generations", type=int, default=5, help="--sweep: generations per run (default 5)")
+    b.add_argument("--seeds", type=int, default=5, help="--sweep: seeds per cell (default 5: 80 runs)")
     b.set_defaults(func=cmd_bench)
 
     r = sub.add_parser("robustness", help="replay a controller with its genes jittered: mean and spread of fitness")
@@ -212,12 +221,10 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
     c.set_defaults(func=cmd_crosscheck)
 
-    for mod in ("cpgjax.cli_evolve", "cpgjax.cli_sweep"):
-        try:
-            module = __import__(mod, fromlist=["register"])
-        except ImportError:
-            continue
-        module.register(sub)
+    from cpgjax import cli_evolve, cli_sweep
+
+    cli_evolve.register(sub)
+    cli_sweep.register(sub)
     return p
 
 

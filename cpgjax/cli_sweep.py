@@ -87,6 +87,19 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", default=None, help="markdown file (default runs/NAME/report.md)")
     p.set_defaults(func=cmd_report)
 
+    p = subparsers.add_parser(
+        "notebook", help="execute a notebook end to end (e.g. the thesis figures at a chosen scale)",
+        description="Run every cell of a notebook with this interpreter as its kernel and save it with its "
+                    "outputs.  notebooks/thesis_figures.ipynb runs the sweep if its results are missing, then "
+                    "draws Fig. 6.5-6.12 and the claims table.")
+    p.add_argument("notebook", metavar="NOTEBOOK.ipynb")
+    p.add_argument("--scale", choices=("tiny", "full"), default=None, help="sets CPGJAX_SCALE for the notebook")
+    p.add_argument("--sweep-dir", default=None, help="sets CPGJAX_SWEEP_DIR (default: the notebook's choice)")
+    p.add_argument("--fig-dir", default=None, help="sets CPGJAX_FIG_DIR (default: the notebook's choice)")
+    p.add_argument("--out", default=None, help="save the executed notebook here (default: in place)")
+    p.add_argument("--no-save", action="store_true", help="do not save the executed notebook")
+    p.set_defaults(func=cmd_notebook)
+
 
 def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
     """The runs and the problem settings the arguments ask for."""
@@ -135,7 +148,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return 1
     print(f"{args.out}: {summary['runs']} runs ({summary['skipped']} already complete), "
           f"{summary['evaluations']} evaluations in {summary['wall_time']:.1f} s "
-          f"(compile {summary['compile_time']:.1f} s), {summary['evals_per_second']:.4g} evaluations/s")
+          f"(compile {summary['compile_time']:.1f} s); steady state "
+          f"{summary['evals_per_second']:.4g} evaluations/s, {summary['cores_busy']:.2f} cores busy")
     with open(os.path.join(args.out, "sweep-timing.jsonl"), "a") as f:
         f.write(json.dumps({**summary, "argv": sys.argv[1:]}) + "\n")
     return 0
@@ -153,4 +167,20 @@ def cmd_report(args: argparse.Namespace) -> int:
         return 1
     print(text)
     print(f"wrote {out}")
+    return 0
+
+
+def cmd_notebook(args: argparse.Namespace) -> int:
+    from cpgjax.notebook import execute
+
+    env = {k: v for k, v in (("CPGJAX_SCALE", args.scale), ("CPGJAX_SWEEP_DIR", args.sweep_dir),
+                             ("CPGJAX_FIG_DIR", args.fig_dir)) if v}
+    out = None if args.no_save else (args.out or args.notebook)
+    root = os.getcwd()
+    try:
+        execute(args.notebook, env=env, cwd=root, out=out)
+    except Exception as e:  # a failing cell: nbclient names the cell and the traceback
+        print(f"cpgjax notebook: {args.notebook}: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+    print(f"executed {args.notebook}" + (f", saved to {out}" if out else ""))
     return 0

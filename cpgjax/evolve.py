@@ -147,6 +147,32 @@ def make_chunk_fn(problem: Problem, algo: Algorithm, chunk: int):
     return jax.jit(run_chunk)
 
 
+def compile_ahead(fn, args: tuple) -> Callable:
+    """Compile the jitted ``fn`` for ``args`` now; returns a callable that always runs that executable.
+
+    Why (compiler behaviour, jax 0.10.2): the state a chunk returns comes back placed (sharded over
+    the host devices) other than the initial one, so the *second* call of a jitted chunk traced and
+    compiled the whole program again (measured: 7 s more at thesis scale for a sweep, about 5 s for
+    one ``cpgjax evolve`` run).  Calling the ahead-of-time executable, with the arguments first put
+    where it expects them (``device_put`` does nothing when they already are), compiles exactly once.
+    """
+    compiled = fn.lower(*args).compile()
+    shardings = compiled.input_shardings[0]
+    return lambda *a: compiled(*jax.device_put(a, shardings))
+
+
+class _CompiledOnFirstCall:
+    """A jitted function compiled ahead of time (:func:`compile_ahead`) for the arguments of its first call."""
+
+    def __init__(self, fn: Callable):
+        self.fn, self.call = fn, None
+
+    def __call__(self, *args):
+        if self.call is None:
+            self.call = compile_ahead(self.fn, args)
+        return self.call(*args)
+
+
 _CHUNK_CACHE: dict[tuple, tuple[Callable, Callable]] = {}
 
 
@@ -160,7 +186,7 @@ def _cached_chunk_fn(problem: Problem, algo: Algorithm, chunk: int, static: tupl
     hit = _CHUNK_CACHE.get(key)
     if hit is not None and hit[0] is problem.evaluate:
         return hit[1]
-    fn = make_chunk_fn(problem, algo, chunk)
+    fn = _CompiledOnFirstCall(make_chunk_fn(problem, algo, chunk))   # same shapes for every hit of the key
     if len(_CHUNK_CACHE) >= 16:
         _CHUNK_CACHE.pop(next(iter(_CHUNK_CACHE)))
     _CHUNK_CACHE[key] = (problem.evaluate, fn)
@@ -188,6 +214,49 @@ def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
         raise ResultsError(f"{path}: the model file changed since the run started")
 
 
+def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int, ...], Any]]:
+    """The per-individual metrics ``problem.evaluate`` returns besides fitness (shapes for the run file).
+
+    Traces the simulator once (``eval_shape``): callers with many runs compute it once.
+    """
+    ev = jax.eval_shape(problem.evaluate, jax.ShapeDtypeStruct((population, problem.n_genes), jnp.float32))
+    return {k: ((population,), np.float32) for k in ev if k not in ("fitness", "diverged")}
+
+
+def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k_init: jax.Array, *,
+             resume: bool, overwrite: bool, init: Callable | None = None,
+             metrics: dict | None = None) -> tuple[int, State, float]:
+    """Where a run starts: ``(completed generations, algorithm state, wall time so far)``.
+
+    ``resume`` and an existing file: its settings are checked against ``algo`` (the number of
+    generations may be extended) and the run continues after its last complete row.  Otherwise a
+    new file is created (an existing one only with ``overwrite``, else :class:`ResultsError`) and
+    the state is ``algo.init`` with the run's ``k_init``.  ``path=None``: nothing on disk.
+    ``init`` (a jitted ``algo.init``) and ``metrics`` (:func:`metrics_spec`) may be passed in by
+    callers that open many runs of one shape, so that neither is traced again for each.
+    """
+    state_spec = jax.eval_shape(algo.init, params, k_init)
+    if path is not None and resume and os.path.exists(path):
+        _check_resume(path, algo, problem)
+        completed, stored, wall0 = read_resume_point(path)
+        if int(read_attrs(path)["generations"]) != algo.generations:
+            with RunWriter(path) as w:
+                w.set_attr("generations", algo.generations)
+                w.set_attr("cfg_generations", algo.generations)
+                w.set_attr("config", json.dumps(algo.config))
+        if completed:
+            return completed, {k: jnp.asarray(stored[k], state_spec[k].dtype) for k in state_spec}, wall0
+    elif path is not None:
+        if os.path.exists(path) and not overwrite:
+            raise ResultsError(f"{path} exists; use --resume to continue it or --overwrite to replace it")
+        if metrics is None:
+            metrics = metrics_spec(problem, algo.population)
+        states = {k: (tuple(s.shape), s.dtype) for k, s in state_spec.items()}
+        create_run(path, kind=algo.kind, config=algo.config, problem=problem, population=algo.population,
+                   generations=algo.generations, metrics=metrics, state=states, overwrite=overwrite)
+    return 0, (init or jax.jit(algo.init))(params, k_init), 0.0
+
+
 def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, *, chunk: int,
          seed: int, static: tuple, resume: bool, overwrite: bool, progress: bool, stop_after: int | None,
          callback: Callable[[int, dict[str, float]], None] | None, desc: str) -> dict[str, Any]:
@@ -196,31 +265,9 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
     path = None if out is None else os.fspath(out)
     k_init, k_prop, k_upd = _keys(seed)
     params = jax.tree.map(jnp.asarray, algo.params)
-    state_spec = jax.eval_shape(algo.init, params, k_init)
     chunk_fn = _cached_chunk_fn(problem, algo, chunk, static)
 
-    completed, wall0, state = 0, 0.0, None
-    if path is not None and resume and os.path.exists(path):
-        _check_resume(path, algo, problem)
-        completed, stored, wall0 = read_resume_point(path)
-        if completed:
-            state = {k: jnp.asarray(stored[k], state_spec[k].dtype) for k in state_spec}
-        if int(read_attrs(path)["generations"]) != algo.generations:
-            with RunWriter(path) as w:
-                w.set_attr("generations", algo.generations)
-                w.set_attr("cfg_generations", algo.generations)
-                w.set_attr("config", json.dumps(algo.config))
-    elif path is not None:
-        if os.path.exists(path) and not overwrite:
-            raise ResultsError(f"{path} exists; use --resume to continue it or --overwrite to replace it")
-        ev_spec = jax.eval_shape(problem.evaluate,
-                                 jax.ShapeDtypeStruct((algo.population, problem.n_genes), jnp.float32))
-        metrics = {k: ((algo.population,), np.float32) for k in ev_spec if k not in ("fitness", "diverged")}
-        states = {k: (tuple(s.shape), s.dtype) for k, s in state_spec.items()}
-        create_run(path, kind=algo.kind, config=algo.config, problem=problem, population=algo.population,
-                   generations=algo.generations, metrics=metrics, state=states, overwrite=overwrite)
-    if state is None:
-        state = jax.jit(algo.init)(params, k_init)
+    completed, state, wall0 = open_run(problem, algo, path, params, k_init, resume=resume, overwrite=overwrite)
 
     target = algo.generations
     if stop_after is not None:

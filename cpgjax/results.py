@@ -252,10 +252,10 @@ class Run:
         return np.where(self.diverged | ~np.isfinite(self.fitness), np.nan, self.fitness)
 
     def best_per_generation(self) -> np.ndarray:
-        return _nanreduce(np.nanmax, self.valid_fitness())
+        return nanreduce(np.nanmax, self.valid_fitness())
 
     def mean_per_generation(self) -> np.ndarray:
-        return _nanreduce(np.nanmean, self.valid_fitness())
+        return nanreduce(np.nanmean, self.valid_fitness())
 
     def best(self) -> tuple[int, int, float, np.ndarray]:
         """(generation, index, fitness, genome) of the best valid individual of the whole run."""
@@ -266,11 +266,12 @@ class Run:
         return int(gen), int(idx), float(v[gen, idx]), self.genomes[gen, idx]
 
 
-def _nanreduce(fn, v: np.ndarray) -> np.ndarray:
-    out = np.full(v.shape[0], np.nan)
-    ok = np.any(np.isfinite(v), axis=1)
+def nanreduce(fn, v: np.ndarray) -> np.ndarray:
+    """``fn(v, axis=-1)`` (e.g. ``np.nanmax``) where a row has a finite entry, NaN where it has none (no warning)."""
+    ok = np.any(np.isfinite(v), axis=-1)
+    out = np.full(v.shape[:-1], np.nan)
     if np.any(ok):
-        out[ok] = fn(v[ok], axis=1)
+        out[ok] = fn(v[ok], axis=-1)
     return out
 
 

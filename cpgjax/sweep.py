@@ -45,9 +45,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax import ga, search
-from cpgjax.evolve import Algorithm, _check_resume, ga_algorithm, search_algorithm
+from cpgjax.evolve import Algorithm, compile_ahead, ga_algorithm, metrics_spec, open_run, search_algorithm
 from cpgjax.problem import Problem
-from cpgjax.results import ResultsError, Row, RunWriter, create_run, read_attrs, read_resume_point
+from cpgjax.results import ResultsError, Row, RunWriter, read_attrs
 
 MANIFEST = "sweep.json"
 
@@ -220,30 +220,16 @@ def make_sweep_chunk_fn(problem: Problem, algos: Sequence[Algorithm], sizes: Seq
     return jax.jit(run_chunk)
 
 
-def _prepare(problem: Problem, spec: RunSpec, algo: Algorithm, overwrite: bool):
-    """(completed, state or None, wall0) of one run; creates its file when missing."""
-    path = spec.path
+def _prepare(problem: Problem, spec: RunSpec, algo: Algorithm, overwrite: bool, init: Callable, metrics: dict):
+    """(completed, state, wall0) of one run: continues its file if there is one (unless ``overwrite``).
+
+    ``init``: the group's jitted ``init`` (every run of a group has the same one, the seed apart);
+    ``metrics``: the problem's metric shapes; both made once per group, not per run.
+    """
     params = jax.tree.map(jnp.asarray, algo.params)
     k_init = jax.random.split(jax.random.key(spec.seed), 3)[0]
-    state_spec = jax.eval_shape(algo.init, params, k_init)
-    if os.path.exists(path) and not overwrite:
-        _check_resume(path, algo, problem)
-        completed, stored, wall0 = read_resume_point(path)
-        if int(read_attrs(path)["generations"]) != algo.generations:
-            with RunWriter(path) as w:
-                w.set_attr("generations", algo.generations)
-                w.set_attr("cfg_generations", algo.generations)
-                w.set_attr("config", json.dumps(algo.config))
-        if completed:
-            return completed, {k: jnp.asarray(stored[k], state_spec[k].dtype) for k in state_spec}, wall0
-    else:
-        ev_spec = jax.eval_shape(problem.evaluate, jax.ShapeDtypeStruct((algo.population, problem.n_genes),
-                                                                        jnp.float32))
-        metrics = {k: ((algo.population,), np.float32) for k in ev_spec if k not in ("fitness", "diverged")}
-        states = {k: (tuple(s.shape), s.dtype) for k, s in state_spec.items()}
-        create_run(path, kind=algo.kind, config=algo.config, problem=problem, population=algo.population,
-                   generations=algo.generations, metrics=metrics, state=states, overwrite=True)
-    return 0, jax.jit(algo.init)(params, k_init), 0.0
+    return open_run(problem, algo, spec.path, params, k_init, resume=not overwrite, overwrite=True,
+                    init=init, metrics=metrics)
 
 
 def total_batch(specs: Sequence[RunSpec]) -> int:
@@ -301,12 +287,16 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
 
     todo: list[dict[str, Any]] = []     # per group: algo, specs, params, states, keys, completed, targets, wall0
     skipped = 0
+    metrics: dict[int, dict] = {}
     for key, members in by_group.items():
         algo0 = _algorithm(problem, members[0])
+        init = jax.jit(algo0.init)
+        if algo0.population not in metrics:
+            metrics[algo0.population] = metrics_spec(problem, algo0.population)
         live, states, params, comp, walls, tgts = [], [], [], [], [], []
         for s in members:
             algo = _algorithm(problem, s)
-            completed, state, wall0 = _prepare(problem, s, algo, overwrite)
+            completed, state, wall0 = _prepare(problem, s, algo, overwrite, init, metrics[algo0.population])
             if completed >= algo.generations:
                 skipped += 1
                 continue
@@ -332,6 +322,9 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
     bar = tqdm(total=total_evals, desc="sweep", unit="eval", unit_scale=True, disable=not progress,
                dynamic_ncols=True)
     evals_done, compile_time, sim_evals = 0, 0.0, 0
+    # Speed is measured in the steady state, from the end of each program's first chunk to the end of
+    # its last (the first chunk carries one-off costs: buffer allocation, the first HDF5 writes).
+    steady = {"wall": 0.0, "cpu": 0.0, "evals": 0}
     t_run = time.perf_counter()
     try:
         for groups in batches:
@@ -340,11 +333,13 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
             fn = make_sweep_chunk_fn(problem, algos, sizes, chunk)
             args = partial(_chunk_args, groups)
             t0 = time.perf_counter()
-            jax.block_until_ready(fn.lower(*args()).compile())
+            fn = compile_ahead(fn, args())
             compile_time += time.perf_counter() - t0
             t_start = time.perf_counter()
             steps = 0
             pending = None
+            first = None                                   # (wall, cpu, evaluations) at the end of chunk 1
+            new_evals = 0
             while any(np.any(g["completed"] < g["targets"]) for g in groups):
                 if stop_after is not None and steps >= stop_after:
                     break
@@ -363,18 +358,28 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
                 steps += 1
                 n_new = sum(int(np.sum((g["completed"] - g0) * g["algo"].population))
                             for g, g0 in zip(groups, gen0, strict=True))
+                new_evals += n_new
+                if first is None:
+                    first = (t_now, time.process_time(), new_evals)
                 bar.update(n_new)
                 if callback is not None:
                     callback(steps, {"evaluations": evals_done})
             if pending is not None:
                 evals_done += _write(pending, t_start)
+            if first is not None and steps > 1:
+                steady["wall"] += time.perf_counter() - first[0]
+                steady["cpu"] += time.process_time() - first[1]
+                steady["evals"] += new_evals - first[2]
     finally:
         bar.close()
     wall = time.perf_counter() - t_run
-    run_time = wall - compile_time
+    if steady["wall"] > 0:
+        rate, cores_busy = steady["evals"] / steady["wall"], steady["cpu"] / steady["wall"]
+    else:                                                  # one chunk per program: no steady state to time
+        rate, cores_busy = evals_done / max(wall - compile_time, 1e-9), float("nan")
     return {"runs": len(specs), "skipped": skipped, "evaluations": evals_done, "evaluated": sim_evals,
             "wall_time": time.perf_counter() - t_begin, "compile_time": compile_time,
-            "evals_per_second": evals_done / run_time if run_time > 0 else float("nan")}
+            "evals_per_second": rate, "cores_busy": cores_busy}
 
 
 def _keep(active, new, old):
@@ -504,7 +509,7 @@ def _ms(v) -> str:
     v = v[np.isfinite(v)]
     if v.size == 0:
         return "–"
-    return f"{v.mean():.3f} ± {v.std(ddof=1) if v.size > 1 else 0.0:.3f}"
+    return f"{v.mean():.3g} ± {v.std(ddof=1) if v.size > 1 else 0.0:.2g}"
 
 
 def _mean(v) -> float:
@@ -529,12 +534,20 @@ def cell_stats(cell) -> dict[str, Any]:
     tail = bpg[:, -max(1, min(50, g // 3 or 1)):]
     osc = np.nanstd(tail, axis=1) / np.abs(np.nanmean(tail, axis=1))
     return {"best": np.nanmax(bsf, axis=1), "plateau": plateau, "t90": t90,
-            "mean_all": np.nanmean(cell.fitness, (1, 2)),
+            "mean_all": np.nanmean(cell.fitness, (1, 2)), "diversity": np.nanmean(cell.diversity[:, -k:], axis=1),
             "oscillation": osc, "evaluations": int(cell.evaluations()[-1]), "seeds": len(cell.seeds)}
 
 
 def _verdict(ok: bool | None, text: str) -> str:
     return {True: "**yes**", False: "**no**", None: "n/a"}[ok] + f" — {text}"
+
+
+def _tally(flags: Sequence[bool], what: str) -> str:
+    """Verdict of a claim checked once per γ: yes (every γ), partly (some), no (none)."""
+    k, n = sum(bool(f) for f in flags), len(flags)
+    if k == n:
+        return f"**yes** — {what} for every γ"
+    return ("**partly**" if k else "**no**") + f" — {what} for {k} of {n} γ"
 
 
 def report(out_dir: str | os.PathLike[str]) -> str:
@@ -568,6 +581,13 @@ def report(out_dir: str | os.PathLike[str]) -> str:
                 return c, s
         return None, None
 
+    def pairs(a: dict, b: dict):
+        """``(gamma, stats with settings a, stats with settings b)`` for each gamma where both GA cells exist."""
+        for g in gammas:
+            s0, s1 = find("ga", gamma=g, **a)[1], find("ga", gamma=g, **b)[1]
+            if s0 is not None and s1 is not None:
+                yield g, s0, s1
+
     claims = ["", "## The thesis's claims (Ch. 6.2-6.3) against this sweep", "",
               "| thesis (Ch. 6.2-6.3) | measured here | verdict |", "|---|---|---|"]
     ga_cells = [(c, s) for c, s in stats if c.kind == "ga"]
@@ -577,11 +597,7 @@ def report(out_dir: str | os.PathLike[str]) -> str:
     if pockets:
         P = pockets[0]
         ratios, osc0, osc1, parts = [], [], [], []
-        for g in gammas:
-            c0, s0 = find("ga", gamma=g, pocket=0, crossover=False)
-            c1, s1 = find("ga", gamma=g, pocket=P, crossover=False)
-            if c0 is None or c1 is None:
-                continue
+        for g, s0, s1 in pairs({"pocket": 0, "crossover": False}, {"pocket": P, "crossover": False}):
             r = _mean(s1["plateau"]) / _mean(s0["plateau"]) if _mean(s0["plateau"]) > 0 else float("inf")
             ratios.append(r)
             osc0.append(_mean(s0["oscillation"]))
@@ -590,14 +606,12 @@ def report(out_dir: str | os.PathLike[str]) -> str:
         if ratios:
             claims.append(f"| Pocketing ({P} of N) more than doubles the plateau (Fig. 6.8) | plateau without → with "
                           f"pocket: {'; '.join(parts)} | "
-                          + _verdict(all(r > 2 for r in ratios),
-                                     f"ratio {min(ratios):.2f}–{max(ratios):.2f}") + " |")
+                          + _tally([r > 2 for r in ratios], f"ratio {min(ratios):.2f}–{max(ratios):.2f}; more than 2")
+                          + " |")
             claims.append("| ... and the residual oscillation is much reduced, in relative terms | relative "
                           "oscillation (sd/mean of the best, last 50 gen.) without → with pocket: "
-                          + "; ".join(f"{a:.2f} → {b:.2f}" for a, b in zip(osc0, osc1, strict=True)) + " | "
-                          + _verdict(all(b < a for a, b in zip(osc0, osc1, strict=True)), "lower for every γ"
-                                     if all(b < a for a, b in zip(osc0, osc1, strict=True)) else "not for every γ")
-                          + " |")
+                          + "; ".join(f"{a:.3g} → {b:.3g}" for a, b in zip(osc0, osc1, strict=True)) + " | "
+                          + _tally([b < a for a, b in zip(osc0, osc1, strict=True)], "lower") + " |")
     # 3. large gamma plateaus early
     if len(gammas) > 1:
         lo, hi = gammas[0], gammas[-1]
@@ -613,15 +627,27 @@ def report(out_dir: str | os.PathLike[str]) -> str:
                           f"{_mean(sl['t90']):.0f}, plateau {_mean(sl['plateau']):.3f} | "
                           + _verdict(early, "plateaus earlier" + (" and lower" if lower else " (not lower)")
                                      if early else "does not plateau earlier") + " |")
+    # 3b. smaller gamma, higher plateau (up to a point)
+    if len(gammas) > 2:
+        for P in [0] + pockets[:1]:
+            found = [(g, find("ga", gamma=g, pocket=P, crossover=False)[1]) for g in gammas]
+            found = [(g, s) for g, s in found if s is not None]
+            if len(found) < 3:
+                continue
+            pl = [_mean(s["plateau"]) for _, s in found]
+            top = found[int(np.argmax(pl))][0]
+            lowest_at_max = int(np.argmin(pl)) == len(pl) - 1
+            claims.append("| As γ decreases the fitness rises to higher plateaus, up to a point "
+                          f"(Fig. 6.7; pocket {P}) | "
+                          "plateau by γ: " + ", ".join(f"{g:g}: {p:.3f}" for (g, _), p in zip(found, pl, strict=True))
+                          + " | " + _verdict(lowest_at_max, f"lowest at γ={found[-1][0]:g}, highest at γ={top:g}"
+                                             if lowest_at_max else f"the largest γ is not the lowest (highest at "
+                                             f"γ={top:g})") + " |")
     # 4. cross-over does not improve the performance within one trial
     if pockets:
         P = pockets[0]
         parts, better = [], []
-        for g in gammas:
-            c0, s0 = find("ga", gamma=g, pocket=P, crossover=False)
-            c1, s1 = find("ga", gamma=g, pocket=P, crossover=True)
-            if c0 is None or c1 is None:
-                continue
+        for g, s0, s1 in pairs({"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}):
             d = _mean(s1["plateau"]) - _mean(s0["plateau"])
             sd = float(np.sqrt((np.nanvar(s0["plateau"], ddof=1) + np.nanvar(s1["plateau"], ddof=1))
                                / max(len(s0["plateau"]), 1)))
@@ -632,12 +658,36 @@ def report(out_dir: str | os.PathLike[str]) -> str:
                           f"without → with cross-over (pocket {P}): {'; '.join(parts)} | "
                           + _verdict(not any(better), "no significant gain (> 2 s.e.)" if not any(better)
                                      else "cross-over is better for some γ") + " |")
+    # 4b. cross-over keeps oscillating near saturation even with a small mutation rate; more diverse populations
+    if pockets:
+        P = pockets[0]
+        parts, larger = [], []
+        for g, s0, s1 in pairs({"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}):
+            a, b = _mean(s0["oscillation"]), _mean(s1["oscillation"])
+            larger.append(b > a)
+            parts.append(f"γ={g:g}: {a:.3g} → {b:.3g}")
+        if parts:
+            claims.append("| With cross-over the fitness keeps oscillating near saturation, even for small mutation "
+                          f"rates (Fig. 6.9) | relative oscillation without → with cross-over (pocket {P}): "
+                          f"{'; '.join(parts)} | " + _tally(larger, "larger with cross-over") + " |")
+        parts, more = [], []
+        for g, s0, s1 in pairs({"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}):
+            a, b = _mean(s0["diversity"]), _mean(s1["diversity"])
+            more.append(b > a)
+            parts.append(f"γ={g:g}: {a:.3g} → {b:.3g}")
+        if parts:
+            claims.append("| With cross-over the last generations are more varied; without it they cluster around "
+                          "one set of parameters (Ch. 6.2.4) | genetic diversity (sd of a gene over the population, "
+                          f"mean over genes, last generations) without → with cross-over: {'; '.join(parts)} | "
+                          + _tally(more, "more diverse") + " |")
     # 5-8. baselines
     best_ga = max(ga_cells, key=lambda cs: _mean(cs[1]["best"]), default=(None, None))
     cr, sr = find("random")
     if best_ga[0] is not None and cr is not None:
         r = _mean(best_ga[1]["best"]) / _mean(sr["best"])
-        claims.append(f"| Random search: best ≈ half the GA's (Fig. 6.10) | best found: GA ({best_ga[0].label()}) "
+        span = [_mean(s["best"]) for _, s in ga_cells]
+        claims.append(f"| Random search: best ≈ half the GA's (Fig. 6.10) | best found: GA ({best_ga[0].label()}, "
+                      f"the best of {len(ga_cells)} GA settings; all of them: {min(span):.3f}–{max(span):.3f}) "
                       f"{_mean(best_ga[1]['best']):.3f}, random {_mean(sr['best']):.3f} (GA ×{r:.2f}) | "
                       + _verdict(1.5 <= r <= 3.0, f"ratio {r:.2f}" + ("" if 1.5 <= r <= 3.0 else
                                  " (not about 2)")) + " |")

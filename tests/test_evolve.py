@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 import pytest
+from runcases import same_rows
 
 from cpgjax import cli_evolve
 from cpgjax.ctl import read_ctl
@@ -23,18 +24,6 @@ from cpgjax.results import ResultsError, read_run
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SPEC = "analytic:diverging:10"
 CFG = GAConfig(generations=15, pocket=4, crossover=True, gamma=0.1, seed=5, chunk=4)
-
-
-def same_rows(a, b, n=None):
-    n = n if n is not None else max(a.completed, b.completed)
-    assert a.completed >= n and b.completed >= n
-    for name in ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate"):
-        np.testing.assert_array_equal(getattr(a, name)[:n], getattr(b, name)[:n], err_msg=name)
-    for group in ("metrics", "state"):
-        ga_, gb = getattr(a, group), getattr(b, group)
-        assert set(ga_) == set(gb)
-        for k in ga_:
-            np.testing.assert_array_equal(ga_[k][:n], gb[k][:n], err_msg=f"{group}/{k}")
 
 
 def test_run_file_contents(tmp_path):

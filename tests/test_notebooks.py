@@ -1,44 +1,42 @@
-"""The notebooks execute end to end at tiny scale (nbclient, a kernel of this very interpreter)."""
+"""The notebooks execute end to end at tiny scale (cpgjax.notebook: nbclient, a kernel of this interpreter)."""
 
 from __future__ import annotations
 
-import json
 import os
-import sys
 
 import pytest
+
+from cpgjax import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NOTEBOOK = os.path.join(ROOT, "notebooks", "thesis_figures.ipynb")
 
 
-def _kernel_here(tmp_path) -> str:
-    """A kernelspec that runs ipykernel with ``sys.executable`` (the test's interpreter and packages)."""
-    d = tmp_path / "jupyter" / "kernels" / "cpgjax-test"
-    d.mkdir(parents=True)
-    (d / "kernel.json").write_text(json.dumps({
-        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
-        "display_name": "cpgjax test", "language": "python"}))
-    return str(tmp_path / "jupyter")
-
-
-def test_thesis_figures_notebook_tiny(tmp_path, monkeypatch):
-    nbformat = pytest.importorskip("nbformat")
-    nbclient = pytest.importorskip("nbclient")
+def test_thesis_figures_notebook_tiny(tmp_path):
+    pytest.importorskip("nbclient")
     pytest.importorskip("ipykernel")
-    monkeypatch.setenv("JUPYTER_PATH", _kernel_here(tmp_path))
-    monkeypatch.setenv("CPGJAX_SCALE", "tiny")
-    monkeypatch.setenv("CPGJAX_SWEEP_DIR", str(tmp_path / "sweep"))
-    monkeypatch.setenv("CPGJAX_FIG_DIR", str(tmp_path / "figures"))
-    monkeypatch.setenv("PYTHONPATH", ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    nb = nbformat.read(NOTEBOOK, as_version=4)
-    client = nbclient.NotebookClient(nb, kernel_name="cpgjax-test", timeout=300,
-                                     resources={"metadata": {"path": ROOT}})
-    client.execute()
+    executed = tmp_path / "executed.ipynb"
+    args = ["notebook", NOTEBOOK, "--scale", "tiny", "--sweep-dir", str(tmp_path / "sweep"),
+            "--fig-dir", str(tmp_path / "figures"), "--out", str(executed)]
+    assert cli.main(args) == 0
     figs = sorted(os.listdir(tmp_path / "figures"))
     assert figs == sorted(f"fig-6-{i}.png" for i in range(5, 13))
+    assert all(os.path.getsize(tmp_path / "figures" / f) > 10_000 for f in figs)
     report = (tmp_path / "sweep" / "report.md").read_text()
     assert "more than doubles" in report and "factor of 2" in report
-    # the notebook reads SCALE from the environment, and a second run finds the results complete
-    out = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", []))
-    assert "scale tiny" in out
+    text = executed.read_text()
+    assert "scale tiny" in text and "Traceback" not in text
+    # a second execution finds the sweep complete and only redraws
+    assert cli.main([*args, "--no-save"]) == 0
+    assert os.environ.get("CPGJAX_SCALE") is None          # the settings do not leak into this process
+
+
+def test_a_failing_notebook_names_the_error(tmp_path, capsys):
+    nbformat = pytest.importorskip("nbformat")
+    pytest.importorskip("ipykernel")
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("x = 1"),
+                                         nbformat.v4.new_code_cell("raise ValueError('no sweep here')")])
+    path = tmp_path / "bad.ipynb"
+    nbformat.write(nb, str(path))
+    assert cli.main(["notebook", str(path), "--no-save"]) == 1
+    assert "no sweep here" in capsys.readouterr().err

@@ -9,6 +9,7 @@ import shutil
 import h5py
 import numpy as np
 import pytest
+from runcases import same_rows
 
 from cpgjax import cli, sweep
 from cpgjax.plots import thesis
@@ -18,18 +19,6 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WL = os.path.join(ROOT, "models", "quadruped.wl")
 # the quadruped, short episodes: the simulator's result for a robot does not depend on its batch
 QUAD = ["--time", "0.5", "--population", "6", "--generations", "3"]
-
-
-def same_rows(a, b, n=None):
-    n = n if n is not None else max(a.completed, b.completed)
-    assert a.completed >= n and b.completed >= n
-    for name in ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate"):
-        np.testing.assert_array_equal(getattr(a, name)[:n], getattr(b, name)[:n], err_msg=name)
-    for group in ("metrics", "state"):
-        ga_, gb = getattr(a, group), getattr(b, group)
-        assert set(ga_) == set(gb)
-        for k in ga_:
-            np.testing.assert_array_equal(ga_[k][:n], gb[k][:n], err_msg=f"{group}/{k}")
 
 
 @pytest.fixture(scope="module")
@@ -177,3 +166,46 @@ def test_eval_chunk_pads_little():
         per_dev = -(-n // 2)
         padded = -(-per_dev // ch) * ch
         assert padded - per_dev < max(16 * (-(-per_dev // 256)), 16)
+
+
+def test_sweep_killed_mid_run_resumes_to_the_uninterrupted_result(tmp_path):
+    """SIGKILL a sweep subprocess while it runs (runs may stop at different generations); the same
+    command continues every run, and the files equal those of a sweep that was never interrupted."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from cpgjax.results import read_attrs
+
+    def argv(out):
+        return ["sweep", "analytic:sphere:10", "--population", "4", "--gamma", "0,1", "--pocket", "0,2",
+                "--seeds", "2", "--generations", "150", "--baselines", "amc3", "--out", str(out), "--quiet"]
+
+    out = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "cpgjax.cli", *argv(out)], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    probe = out / "ga_n4_mu0.2_g0_p0_xoff" / "s0.h5"
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                if read_attrs(probe)["completed"] >= 5:
+                    break
+            except (OSError, KeyError, ResultsError):
+                pass
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == -signal.SIGKILL, "the sweep finished before it could be killed"
+    done = [read_run(p).completed for fs in sweep.find_runs(out).values() for p in fs]
+    assert 0 < min(done) and max(done) < 150
+    assert cli.main(argv(out)) == 0
+    ref = tmp_path / "ref"
+    assert cli.main(argv(ref)) == 0
+    for cell, files in sweep.find_runs(ref).items():
+        for p in files:
+            same_rows(read_run(p), read_run(out / cell / os.path.basename(p)))

@@ -29,7 +29,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from cpgjax.results import read_run
+from cpgjax.results import nanreduce, read_run
 
 Paths = Sequence[str | os.PathLike[str]]
 
@@ -44,6 +44,7 @@ class Cell:
     paths: list[str]
     fitness: np.ndarray          # [S, G, N] valid fitness (NaN: diverged)
     mutation_rate: np.ndarray    # [S, G]
+    diversity: np.ndarray        # [S, G] genetic diversity: sd of each gene over the population, mean over genes
 
     @property
     def population(self) -> int:
@@ -51,10 +52,10 @@ class Cell:
 
     def best_per_generation(self) -> np.ndarray:
         """``[S, G]`` best valid fitness of each generation (NaN when none is valid)."""
-        return _nanreduce(np.nanmax, self.fitness)
+        return nanreduce(np.nanmax, self.fitness)
 
     def mean_per_generation(self) -> np.ndarray:
-        return _nanreduce(np.nanmean, self.fitness)
+        return nanreduce(np.nanmean, self.fitness)
 
     def best_so_far(self) -> np.ndarray:
         """``[S, G]`` best valid fitness up to and including each generation."""
@@ -84,14 +85,6 @@ class Cell:
         return "random search"
 
 
-def _nanreduce(fn, v: np.ndarray) -> np.ndarray:
-    ok = np.any(np.isfinite(v), axis=-1)
-    out = np.full(v.shape[:-1], np.nan)
-    if np.any(ok):
-        out[ok] = fn(v[ok], axis=-1)
-    return out
-
-
 def load_cells(paths: Paths) -> list[Cell]:
     """Group run files into cells (same kind and configuration but the seed), truncated to the shortest run."""
     groups: dict[str, list] = {}
@@ -110,7 +103,8 @@ def load_cells(paths: Paths) -> list[Cell]:
         cells.append(Cell(kind=runs[0].kind, config=cfg, seeds=[int(r.config.get("seed", 0)) for r in runs],
                           paths=[r.path for r in runs],
                           fitness=np.stack([r.valid_fitness()[:g] for r in runs]),
-                          mutation_rate=np.stack([r.mutation_rate[:g] for r in runs])))
+                          mutation_rate=np.stack([r.mutation_rate[:g] for r in runs]),
+                          diversity=np.stack([r.genomes[:g].std(axis=1).mean(axis=-1) for r in runs])))
     cells.sort(key=_order)
     return cells
 
@@ -153,15 +147,20 @@ def _finish(ax, xlabel: str, title: str | None = None, legend: bool = True) -> N
         ax.legend(fontsize=7, loc="best")
 
 
+def _ga_cells(paths: Paths, who: str) -> list[Cell]:
+    cells = [c for c in load_cells(paths) if c.kind == "ga"]
+    if not cells:
+        raise ValueError(f"{who} needs GA runs; none among the {len(paths)} files given")
+    return cells
+
+
 def fig_6_5(paths: Paths, title: str | None = None) -> Figure:
     """Fig. 6.5: GA (fixed mutation rate, replication only): fitness vs generation.
 
     Left: the best trial (thesis style): its population as a cloud, the best and mean of each
     generation.  Right: best and mean of each generation, mean over seeds ± sd.
     """
-    cells = [c for c in load_cells(paths) if c.kind == "ga"]
-    if not cells:
-        raise ValueError("fig_6_5 needs GA runs")
+    cells = _ga_cells(paths, "fig_6_5")
     fig, (a, b) = _figure(2, (11, 4.5), sharey=True)
     for i, c in enumerate(cells):
         col = f"C{i}"
@@ -208,9 +207,7 @@ def fig_6_6(gammas: Sequence[float] = (0.0, 0.01, 0.1, 1.0), mu_max: float = 0.1
 
 
 def _gamma_figure(paths: Paths, title: str) -> Figure:
-    cells = [c for c in load_cells(paths) if c.kind == "ga"]
-    if not cells:
-        raise ValueError("no GA runs given")
+    cells = _ga_cells(paths, "this figure")
     fig, (a, b) = _figure(2, (11, 4.5), sharey=True)
     for i, c in enumerate(cells):
         col = f"C{i}"
