@@ -17,35 +17,57 @@ import sys
 from typing import Any
 
 
-def _floats(s: str) -> list[float]:
-    return [float(x) for x in s.split(",") if x.strip()]
+def _list(conv, what: str):
+    """An argparse type for a comma list (``0,0.01,0.1``), naming the option and the bad item on error."""
+
+    def parse(text: str) -> list:
+        out = []
+        for x in text.split(","):
+            if not x.strip():
+                continue
+            try:
+                out.append(conv(x.strip()))
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"{what}: {x.strip()!r} in {text!r} is not valid") from None
+        if not out:
+            raise argparse.ArgumentTypeError(f"{what}: empty list")
+        return out
+
+    return parse
 
 
-def _ints(s: str) -> list[int]:
-    return [int(x) for x in s.split(",") if x.strip()]
+def _onoff(x: str) -> bool:
+    x = x.lower()
+    if x in ("on", "true", "1", "yes"):
+        return True
+    if x in ("off", "false", "0", "no"):
+        return False
+    raise ValueError(x)
 
 
-def _bools(s: str) -> list[bool]:
-    out = []
-    for x in s.split(","):
-        x = x.strip().lower()
-        if x in ("on", "true", "1", "yes"):
-            out.append(True)
-        elif x in ("off", "false", "0", "no"):
-            out.append(False)
-        elif x:
-            raise argparse.ArgumentTypeError(f"cross-over must be on/off, got {x!r}")
-    return out
+_floats = _list(float, "expected numbers, e.g. 0,0.01,0.1,1")
+_ints = _list(int, "expected whole numbers, e.g. 0,4")
+_bools = _list(_onoff, "expected on/off, e.g. off,on")
 
 
 def _seeds(s: str) -> list[int]:
     """``5`` = seeds 0..4; ``3,7,9`` = those seeds; ``10:15`` = 10..14."""
-    if "," in s:
-        return _ints(s)
-    if ":" in s:
-        a, b = s.split(":")
-        return list(range(int(a), int(b)))
-    return list(range(int(s)))
+    try:
+        if "," in s:
+            return [int(x) for x in s.split(",") if x.strip()]
+        if ":" in s:
+            a, b = s.split(":")
+            return list(range(int(a), int(b)))
+        return list(range(int(s)))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seeds: expected a count (5), a list (3,7,9) or a range (10:15), "
+                                         f"got {s!r}") from None
+
+
+GRID = ("gamma", "pocket", "crossover", "population", "generations", "mu_max", "mutation", "sigma", "selection",
+        "no_ga", "baselines", "samples")
+DEFAULTS = {"gamma": [0.0], "pocket": [0], "crossover": [False], "population": [20], "generations": 150,
+            "mu_max": 0.2, "seeds": list(range(5))}
 
 
 def register(subparsers: Any) -> None:
@@ -58,28 +80,28 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", required=True, help="sweep directory (runs/NAME/)")
     p.add_argument("--preset", choices=("full", "tiny"), default=None,
                    help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.sweep.SCALES); other grid options ignored")
-    p.add_argument("--gamma", type=_floats, default=[0.0], help="comma list of gamma (eq. 6.1), default 0")
-    p.add_argument("--pocket", type=_ints, default=[0], help="comma list of pocket sizes, default 0")
-    p.add_argument("--crossover", type=_bools, default=[False], help="comma list of on/off, default off")
-    p.add_argument("--population", type=_ints, default=[20], help="comma list of population sizes, default 20")
-    p.add_argument("--generations", type=int, default=150)
-    p.add_argument("--mu-max", type=float, default=0.2)
-    p.add_argument("--mutation", default=None, help="gauss|redraw (default gauss)")
-    p.add_argument("--sigma", type=float, default=None)
-    p.add_argument("--selection", default=None, help="clip|shift (default clip)")
+    p.add_argument("--gamma", type=_floats, help="comma list of γ (eq. 6.1), default 0")
+    p.add_argument("--pocket", type=_ints, help="comma list of pocket sizes P (0 = off), default 0")
+    p.add_argument("--crossover", type=_bools, help="comma list of on/off, default off")
+    p.add_argument("--population", type=_ints, help="comma list of population sizes, default 20")
+    p.add_argument("--generations", type=int, help="generations per GA run, default 150")
+    p.add_argument("--mu-max", type=float, help="mutation rate at generation 0 (eq. 6.1), default 0.2")
+    p.add_argument("--mutation", choices=("gauss", "redraw"), help="how a mutated gene changes, default gauss")
+    p.add_argument("--sigma", type=float, help="std of the Gaussian mutation step, default 0.1")
+    p.add_argument("--selection", choices=("clip", "shift"), help="reading of 'probability ∝ fitness', default clip")
     p.add_argument("--no-ga", action="store_true", help="baselines only")
-    p.add_argument("--baselines", default="", help="comma list of random, amc3, amc5, amc10, ... (default none)")
-    p.add_argument("--samples", type=int, default=None, help="baseline budget (default population x generations)")
-    p.add_argument("--seeds", type=_seeds, default=list(range(5)), help="5 (= 0..4), a comma list or A:B")
-    p.add_argument("--time", type=float, default=None, help="episode length in s (default: the model's)")
-    p.add_argument("--terrain", default=None)
-    p.add_argument("--delta", type=float, default=None)
+    p.add_argument("--baselines", help="comma list of random, amc3, amc5, amc10, ... (default none)")
+    p.add_argument("--samples", type=int, help="baseline budget (default population x generations)")
+    p.add_argument("--seeds", type=_seeds, help="5 (= seeds 0..4, the default), a comma list 3,7,9 or a range 10:15")
+    p.add_argument("--time", type=float, default=None, help="episode length in s (default: the model's TimeMax)")
+    p.add_argument("--terrain", default=None, help="flat | ramp:… | bump:… | rough:… (default: the model's)")
+    p.add_argument("--delta", type=float, default=None, help="δ of the fitness, eq. 4.5 (default 8)")
     p.add_argument("--chunk", type=int, default=1, help="generations per jitted chunk (default 1)")
     p.add_argument("--group", choices=("all", "kind"), default="all",
                    help="all runs in one program (default) or one program per group of same-shaped runs")
     p.add_argument("--overwrite", action="store_true", help="start every run anew")
     p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
-    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
 
     p = subparsers.add_parser("report", help="summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)")
@@ -108,24 +130,28 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
     problem_args: dict[str, Any] = {"model": args.model, "time": args.time, "terrain": args.terrain,
                                     "delta": args.delta}
     if args.preset:
+        given = [f"--{k.replace('_', '-')}" for k in GRID if getattr(args, k) not in (None, False)]
+        if given:
+            raise ValueError(f"--preset {args.preset} is a whole experiment; drop {', '.join(given)} "
+                             "(or leave out --preset to run your own grid)")
         s = sweep.SCALES[args.preset]
-        cells = sweep.thesis_cells(args.preset)
         if args.time is None:
             problem_args["time"] = s["time"]
-        seeds = list(range(s["seeds"])) if args.seeds == list(range(5)) else args.seeds
-        return sweep.plan(args.out, cells, seeds, chunk=args.chunk), problem_args
-    extra = {k: getattr(args, k) for k in ("mutation", "sigma", "selection") if getattr(args, k) is not None}
+        seeds = args.seeds if args.seeds is not None else list(range(s["seeds"]))
+        return sweep.plan(args.out, sweep.thesis_cells(args.preset), seeds, chunk=args.chunk), problem_args
+    a = {k: (getattr(args, k) if getattr(args, k) is not None else DEFAULTS.get(k)) for k in (*GRID, "seeds")}
+    extra = {k: a[k] for k in ("mutation", "sigma", "selection") if a[k] is not None}
     cells: list = []
-    if not args.no_ga:
-        cells += sweep.ga_grid(gamma=args.gamma, pocket=args.pocket, crossover=args.crossover,
-                               population=args.population, generations=args.generations, mu_max=args.mu_max,
+    if not a["no_ga"]:
+        cells += sweep.ga_grid(gamma=a["gamma"], pocket=a["pocket"], crossover=a["crossover"],
+                               population=a["population"], generations=a["generations"], mu_max=a["mu_max"],
                                **extra)
-    if args.baselines:
-        samples = args.samples or args.population[0] * args.generations
-        cells += sweep.baseline_cells(args.baselines.split(","), samples=samples, batch=args.population[0])
+    if a["baselines"]:
+        samples = a["samples"] or a["population"][0] * a["generations"]
+        cells += sweep.baseline_cells(a["baselines"].split(","), samples=samples, batch=a["population"][0])
     if not cells:
         raise ValueError("nothing to run (--no-ga without --baselines)")
-    return sweep.plan(args.out, cells, args.seeds, chunk=args.chunk), problem_args
+    return sweep.plan(args.out, cells, a["seeds"], chunk=args.chunk), problem_args
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

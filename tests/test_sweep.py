@@ -209,3 +209,17 @@ def test_sweep_killed_mid_run_resumes_to_the_uninterrupted_result(tmp_path):
     for cell, files in sweep.find_runs(ref).items():
         for p in files:
             same_rows(read_run(p), read_run(out / cell / os.path.basename(p)))
+
+
+def test_bad_arguments_are_named(tmp_path, capsys):
+    out = str(tmp_path / "s")
+    with pytest.raises(SystemExit):
+        cli.main(["sweep", WL, "--gamma", "0,x", "--out", out])
+    assert "'x' in '0,x'" in capsys.readouterr().err
+    assert cli.main(["sweep", WL, "--preset", "tiny", "--pocket", "0,4", "--out", out]) == 1
+    assert "drop --pocket" in capsys.readouterr().err
+    assert cli.main(["sweep", WL, "--pocket", "0,30", "--out", out, "--dry-run"]) == 1
+    assert "pocket must be in [0, population]" in capsys.readouterr().err
+    assert cli.main(["sweep", WL, "--preset", "tiny", "--out", out, "--dry-run"]) == 0
+    assert "18 runs" in capsys.readouterr().out
+    assert not os.path.exists(out)                      # a dry run writes nothing
