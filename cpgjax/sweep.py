@@ -666,24 +666,23 @@ def report(out_dir: str | os.PathLike[str]) -> str:
     # 4b. cross-over keeps oscillating near saturation even with a small mutation rate; more diverse populations
     if pockets:
         P = pockets[0]
-        parts, larger = [], []
-        for g, s0, s1 in pairs({"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}):
-            a, b = _mean(s0["oscillation"]), _mean(s1["oscillation"])
-            larger.append(b > a)
-            parts.append(f"γ={g:g}: {a:.3g} → {b:.3g}")
-        if parts:
+        without, with_ = {"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}
+
+        def compare(metric: str) -> tuple[str, list[bool]]:
+            """Per γ, ``metric`` without → with cross-over, and whether it is larger with it."""
+            rows = [(g, _mean(s0[metric]), _mean(s1[metric])) for g, s0, s1 in pairs(without, with_)]
+            return "; ".join(f"γ={g:g}: {a:.3g} → {b:.3g}" for g, a, b in rows), [b > a for _, a, b in rows]
+
+        text, larger = compare("oscillation")
+        if larger:
             claims.append("| With cross-over the fitness keeps oscillating near saturation, even for small mutation "
                           f"rates (Fig. 6.9) | relative oscillation without → with cross-over (pocket {P}): "
-                          f"{'; '.join(parts)} | " + _tally(larger, "larger with cross-over") + " |")
-        parts, more = [], []
-        for g, s0, s1 in pairs({"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}):
-            a, b = _mean(s0["diversity"]), _mean(s1["diversity"])
-            more.append(b > a)
-            parts.append(f"γ={g:g}: {a:.3g} → {b:.3g}")
-        if parts:
+                          f"{text} | " + _tally(larger, "larger with cross-over") + " |")
+        text, more = compare("diversity")
+        if more:
             claims.append("| With cross-over the last generations are more varied; without it they cluster around "
                           "one set of parameters (Ch. 6.2.4) | genetic diversity (sd of a gene over the population, "
-                          f"mean over genes, last generations) without → with cross-over: {'; '.join(parts)} | "
+                          f"mean over genes, last generations) without → with cross-over: {text} | "
                           + _tally(more, "more diverse") + " |")
     # 5-8. baselines
     best_ga = max(ga_cells, key=lambda cs: _mean(cs[1]["best"]), default=(None, None))
