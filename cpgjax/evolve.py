@@ -193,7 +193,12 @@ def _cached_chunk_fn(problem: Problem, algo: Algorithm, chunk: int, static: tupl
     return fn
 
 
-def _keys(seed: int) -> tuple[jax.Array, jax.Array, jax.Array]:
+def run_keys(seed: int) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """``(k_init, k_propose, k_update)`` of a run: its whole randomness, from the seed alone.
+
+    Every driver (``cpgjax evolve``, ``search``, ``sweep``) takes its keys from here, which is what
+    makes a run of a sweep equal, bit for bit, the same run made alone.
+    """
     k_init, k_prop, k_upd = jax.random.split(jax.random.key(seed), 3)
     return k_init, k_prop, k_upd
 
@@ -263,7 +268,7 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
     from tqdm.auto import tqdm
 
     path = None if out is None else os.fspath(out)
-    k_init, k_prop, k_upd = _keys(seed)
+    k_init, k_prop, k_upd = run_keys(seed)
     params = jax.tree.map(jnp.asarray, algo.params)
     chunk_fn = _cached_chunk_fn(problem, algo, chunk, static)
 

@@ -45,7 +45,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax import ga, search
-from cpgjax.evolve import Algorithm, compile_ahead, ga_algorithm, metrics_spec, open_run, search_algorithm
+from cpgjax.evolve import (
+    Algorithm,
+    compile_ahead,
+    ga_algorithm,
+    metrics_spec,
+    open_run,
+    run_keys,
+    search_algorithm,
+)
 from cpgjax.problem import Problem
 from cpgjax.results import ResultsError, Row, RunWriter, read_attrs
 
@@ -220,25 +228,9 @@ def make_sweep_chunk_fn(problem: Problem, algos: Sequence[Algorithm], sizes: Seq
     return jax.jit(run_chunk)
 
 
-def _prepare(problem: Problem, spec: RunSpec, algo: Algorithm, overwrite: bool, init: Callable, metrics: dict):
-    """(completed, state, wall0) of one run: continues its file if there is one (unless ``overwrite``).
-
-    ``init``: the group's jitted ``init`` (every run of a group has the same one, the seed apart);
-    ``metrics``: the problem's metric shapes; both made once per group, not per run.
-    """
-    params = jax.tree.map(jnp.asarray, algo.params)
-    k_init = jax.random.split(jax.random.key(spec.seed), 3)[0]
-    return open_run(problem, algo, spec.path, params, k_init, resume=not overwrite, overwrite=True,
-                    init=init, metrics=metrics)
-
-
 def total_batch(specs: Sequence[RunSpec]) -> int:
     """Evaluations per sweep generation when every run of ``specs`` is in one batch."""
-    return sum(_population(s.cfg) for s in specs)
-
-
-def _population(cfg) -> int:
-    return cfg.population
+    return sum(s.cfg.population for s in specs)
 
 
 def eval_chunk(n: int, devices: int | None = None, max_chunk: int = 256, lanes: int = 16) -> int:
@@ -293,22 +285,27 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
         init = jax.jit(algo0.init)
         if algo0.population not in metrics:
             metrics[algo0.population] = metrics_spec(problem, algo0.population)
-        live, states, params, comp, walls, tgts = [], [], [], [], [], []
+        live, states, params, keys, comp, walls, tgts = [], [], [], [], [], [], []
         for s in members:
+            # the same keys, init and file handling as cpgjax evolve / search (init and metric shapes
+            # are traced once per group: every run of a group has the same ones, the seed apart)
             algo = _algorithm(problem, s)
-            completed, state, wall0 = _prepare(problem, s, algo, overwrite, init, metrics[algo0.population])
+            p = jax.tree.map(jnp.asarray, algo.params)
+            k = run_keys(s.seed)
+            completed, state, wall0 = open_run(problem, algo, s.path, p, k[0], resume=not overwrite, overwrite=True,
+                                               init=init, metrics=metrics[algo0.population])
             if completed >= algo.generations:
                 skipped += 1
                 continue
             live.append(s)
             states.append(state)
-            params.append(jax.tree.map(jnp.asarray, algo.params))
+            params.append(p)
+            keys.append(k)
             comp.append(completed)
             walls.append(wall0)
             tgts.append(algo.generations)
         if not live:
             continue
-        keys = [jax.random.split(jax.random.key(s.seed), 3) for s in live]
         todo.append({
             "key": key, "algo": algo0, "specs": live,
             "params": ga.stack_params(params) if algo0.kind == "ga" else (),
