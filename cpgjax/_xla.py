@@ -2,7 +2,7 @@
 
 Why: on CPU, XLA runs one program mostly on one core; the fastest way we measured to
 use every core for a batch of independent robots is one *host device* per core and
-the batch split across them (`cpgjax.sim.batch`).  That needs
+the batch split across them (`cpgjax.episode.batch`).  That needs
 ``--xla_force_host_platform_device_count`` set before ``import jax``.  This module is
 imported first by ``cpgjax/__init__.py``; if JAX was already imported (e.g. by a
 notebook), the flag cannot take effect and cpgjax falls back to the devices it has.

@@ -6,7 +6,7 @@ import numpy as np
 
 
 def same_rows(a, b, n=None):
-    """Two read-back runs (:class:`cpgjax.results.Run`) hold bit for bit the same first ``n`` rows."""
+    """Two read-back runs (:class:`cpgjax.io.results.Run`) hold bit for bit the same first ``n`` rows."""
     n = n if n is not None else max(a.completed, b.completed)
     assert a.completed >= n and b.completed >= n
     for name in ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate"):

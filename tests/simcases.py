@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from cpgjax.io.wl import parse_wl
 from cpgjax.sim.model import build_model
-from cpgjax.wl import parse_wl
 
 
 def model_from(text: str, **kw):
@@ -108,7 +108,7 @@ Joint J{i} {{
 
 def energy(model, traj):
     """Kinetic + potential energy [S] of a recorded single-robot trajectory."""
-    from cpgjax.logs import quat_to_mat_np
+    from cpgjax.io.logs import quat_to_mat_np
 
     x, v, w, q = (np.asarray(traj[k], float) for k in ("x", "v", "w", "q"))
     m = model.mass

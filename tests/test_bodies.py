@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 from simcases import box, chain, energy
 
-from cpgjax.logs import quat_to_mat_np
-from cpgjax.sim.episode import simulate
+from cpgjax.episode.batch import simulate
+from cpgjax.io.logs import quat_to_mat_np
 from cpgjax.sim.state import initial_state
 from cpgjax.sim.step import step
 

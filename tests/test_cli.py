@@ -3,7 +3,7 @@
 import numpy as np
 
 from cpgjax.cli import main
-from cpgjax.logs import read_log
+from cpgjax.io.logs import read_log
 
 
 def test_simulate_trot_prints_the_metrics_and_writes_thesis_logs(tmp_path, capsys):

@@ -3,7 +3,7 @@
 import numpy as np
 from simcases import box, model_from
 
-from cpgjax.sim.episode import simulate
+from cpgjax.episode.batch import simulate
 
 
 def test_resting_penetration_is_m_g_over_A_contacts():

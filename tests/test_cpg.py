@@ -3,8 +3,8 @@
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.cpg import sinusoid_genome, targets
-from cpgjax.fitness import stability
+from cpgjax.episode.cpg import sinusoid_genome, targets
+from cpgjax.episode.fitness import stability
 
 
 def test_fourier_series_and_its_rate():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cpgjax.ctl import (
+from cpgjax.io.ctl import (
     Control,
     coeffs_to_genome,
     format_ctl,
@@ -14,7 +14,7 @@ from cpgjax.ctl import (
     read_ctl,
     write_ctl,
 )
-from cpgjax.description import DescriptionError
+from cpgjax.sim.description import DescriptionError
 
 # The thesis example (Ch. 3.5.1): fitness, then 8 DOFs x (c0 a1 b1 a2 b2).
 THESIS_CTL = """\

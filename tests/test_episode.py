@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from cpgjax.ctl import read_ctl
-from cpgjax.sim.episode import simulate
-from cpgjax.sim.model import load_model
+from cpgjax.episode.batch import simulate
+from cpgjax.io.ctl import read_ctl
+from cpgjax.io.wl import load_model
 
 QUAD = "models/quadruped.wl"
 TROT = "models/quadruped-trot.ctl"

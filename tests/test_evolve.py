@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 from runcases import same_rows
 
-from cpgjax import cli_evolve
-from cpgjax.ctl import read_ctl
-from cpgjax.evolve import run_ga
-from cpgjax.ga import GAConfig
-from cpgjax.problem import analytic_problem
-from cpgjax.results import ResultsError, read_run
+from cpgjax.cli import evolve as cli_evolve
+from cpgjax.experiments.evolve import run_ga
+from cpgjax.io.ctl import read_ctl
+from cpgjax.io.results import ResultsError, read_run
+from cpgjax.optim.analytic import analytic_problem
+from cpgjax.optim.ga import GAConfig
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SPEC = "analytic:diverging:10"
@@ -77,9 +77,9 @@ def test_refusals(tmp_path):
 
 KILL_SCRIPT = """
 import sys
-from cpgjax.evolve import run_ga
-from cpgjax.ga import GAConfig
-from cpgjax.problem import analytic_problem
+from cpgjax.experiments.evolve import run_ga
+from cpgjax.optim.ga import GAConfig
+from cpgjax.optim.analytic import analytic_problem
 
 cfg = GAConfig(generations=100000, pocket=4, crossover=True, gamma=0.1, seed=9, chunk=1)
 run_ga(analytic_problem("{spec}"), cfg, sys.argv[1], resume=True,

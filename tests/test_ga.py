@@ -8,9 +8,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cpgjax import ga
-from cpgjax.evolve import run_ga
-from cpgjax.problem import analytic_problem, default_optimum
+from cpgjax.experiments.evolve import run_ga
+from cpgjax.optim import ga
+from cpgjax.optim.analytic import analytic_problem, default_optimum
 
 KEY = jax.random.key(1234)
 N, G = 20, 10  # one shape for the jitted operators: each new shape costs a compilation

@@ -3,7 +3,7 @@
 import numpy as np
 from simcases import pendulum, rig
 
-from cpgjax.sim.episode import simulate
+from cpgjax.episode.batch import simulate
 
 
 def _period(t, angle):

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from simcases import rig
 
-from cpgjax.ctl import read_ctl
-from cpgjax.mjcf_export import load, to_mjcf
-from cpgjax.reference import joint_angles, mujoco_run, spearman
-from cpgjax.sim.episode import simulate
-from cpgjax.sim.model import load_model
+from cpgjax.crosscheck.engines import joint_angles, mujoco_run, spearman
+from cpgjax.crosscheck.mjcf import load, to_mjcf
+from cpgjax.episode.batch import simulate
+from cpgjax.io.ctl import read_ctl
+from cpgjax.io.wl import load_model
 
 
 @pytest.fixture(scope="module")

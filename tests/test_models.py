@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from cpgjax.analysis import feet_down
-from cpgjax.ctl import read_ctl
-from cpgjax.sim.episode import simulate
-from cpgjax.sim.model import load_model
+from cpgjax.analysis.contacts import feet_down
+from cpgjax.episode.batch import simulate
+from cpgjax.io.ctl import read_ctl
+from cpgjax.io.wl import load_model
 
 
 def run(name, ctl=True, record=False):

@@ -1,4 +1,5 @@
-"""The notebooks execute end to end at tiny scale (cpgjax.notebook: nbclient, a kernel of this interpreter)."""
+"""The notebooks execute end to end at tiny scale (cpgjax.experiments.notebook: nbclient, a kernel of this
+interpreter)."""
 
 from __future__ import annotations
 

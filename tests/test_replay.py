@@ -5,9 +5,9 @@ import re
 import numpy as np
 
 from cpgjax.cli import main
-from cpgjax.ctl import read_ctl
-from cpgjax.fitness import make_problem
-from cpgjax.results import read_run
+from cpgjax.io.ctl import read_ctl
+from cpgjax.io.results import read_run
+from cpgjax.optim.factory import wl_problem as make_problem
 
 
 def test_best_controller_replays_with_the_fitness_the_ga_gave_it(tmp_path, capsys):

@@ -8,8 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
-from cpgjax.problem import sphere_problem
-from cpgjax.results import ResultsError, Row, RunWriter, create_run, read_attrs, read_resume_point, read_run
+from cpgjax.io.results import ResultsError, Row, RunWriter, create_run, read_attrs, read_resume_point, read_run
+from cpgjax.optim.analytic import sphere_problem
 
 N, G = 4, 5
 

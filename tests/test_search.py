@@ -7,23 +7,23 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cpgjax import search
-from cpgjax.evolve import run_search
-from cpgjax.problem import analytic_problem
-from cpgjax.results import read_run
+from cpgjax.experiments.evolve import run_search
+from cpgjax.io.results import read_run
+from cpgjax.optim import baselines
+from cpgjax.optim.analytic import analytic_problem
 
 KEY = jax.random.key(5)
 
 
 def test_random_samples_fill_the_hypercube():
-    x = np.asarray(search.random_propose(KEY, 4000, 10, -0.8, 0.8))
+    x = np.asarray(baselines.random_propose(KEY, 4000, 10, -0.8, 0.8))
     assert x.min() >= -0.8 and x.max() <= 0.8
     assert abs(x.mean()) < 0.01 and x.std() == pytest.approx(1.6 / np.sqrt(12), rel=0.02)
 
 
 def test_amc_width_contracts_from_the_whole_cube():
     K = 150
-    w = np.asarray([float(search.amc_width(k, K, -0.8, 0.8, 0.02)) for k in range(K)])
+    w = np.asarray([float(baselines.amc_width(k, K, -0.8, 0.8, 0.02)) for k in range(K)])
     assert w[0] == pytest.approx(0.8) and w[-1] == pytest.approx(0.02, rel=1e-4)
     assert np.all(np.diff(w) < 0)
 
@@ -31,7 +31,7 @@ def test_amc_width_contracts_from_the_whole_cube():
 def test_amc_samples_stay_in_the_box_and_the_cube():
     state = {"center": jnp.asarray([[0.75, 0.0, -0.8], [0.0, 0.1, 0.2]], jnp.float32),
              "best": jnp.zeros(2)}
-    x = np.asarray(search.amc_propose(state, KEY, 0.1, 500, -0.8, 0.8)).reshape(2, 500, 3)
+    x = np.asarray(baselines.amc_propose(state, KEY, 0.1, 500, -0.8, 0.8)).reshape(2, 500, 3)
     c = np.asarray(state["center"])
     assert np.all(np.abs(x - c[:, None, :]) <= 0.1 + 1e-6)
     assert x.min() >= -0.8 and x.max() <= 0.8
@@ -40,33 +40,33 @@ def test_amc_samples_stay_in_the_box_and_the_cube():
 
 
 def test_amc_update_keeps_the_best_and_ignores_diverged():
-    state = search.amc_init(2, 3, -0.8, 0.8)
+    state = baselines.amc_init(2, 3, -0.8, 0.8)
     g = jnp.arange(12, dtype=jnp.float32).reshape(4, 3) / 20
     f = jnp.asarray([0.1, 0.3, jnp.nan, 0.2])
     div = jnp.asarray([False, False, False, True])
-    new = search.amc_update(state, g, f, div)
+    new = baselines.amc_update(state, g, f, div)
     np.testing.assert_allclose(np.asarray(new["best"]), [0.3, -np.inf])
     np.testing.assert_allclose(np.asarray(new["center"][0]), np.asarray(g[1]))
     np.testing.assert_allclose(np.asarray(new["center"][1]), 0.0)
-    worse = search.amc_update(new, g, jnp.asarray([0.0, 0.05, 0.5, 0.4]), jnp.zeros(4, bool))
+    worse = baselines.amc_update(new, g, jnp.asarray([0.0, 0.05, 0.5, 0.4]), jnp.zeros(4, bool))
     np.testing.assert_allclose(np.asarray(worse["best"]), [0.3, 0.5])
     np.testing.assert_allclose(np.asarray(worse["center"][0]), np.asarray(g[1]))
 
 
 def test_config():
-    c = search.SearchConfig(method="amc", M=3)
+    c = baselines.SearchConfig(method="amc", M=3)
     assert c.per_variable == 7 and c.population == 21 and c.iterations == 143
-    r = search.SearchConfig()
+    r = baselines.SearchConfig()
     assert (r.population, r.iterations, r.samples) == (20, 150, 3000)
     with pytest.raises(ValueError):
-        search.SearchConfig(method="annealing")
+        baselines.SearchConfig(method="annealing")
 
 
 def test_searches_on_the_budget_with_the_ga_layout(tmp_path):
     problem = analytic_problem("analytic:sphere:10")
     out = {}
     for method in ("random", "amc"):
-        cfg = search.SearchConfig(method=method, samples=600, batch=20, M=5, seed=2, chunk=10)
+        cfg = baselines.SearchConfig(method=method, samples=600, batch=20, M=5, seed=2, chunk=10)
         s = run_search(problem, cfg, tmp_path / f"{method}.h5")
         run = read_run(tmp_path / f"{method}.h5")
         assert run.kind == method and run.completed == 30 and run.genomes.shape == (30, 20, 10)

@@ -1,4 +1,5 @@
-"""Sweeps (cpgjax.sweep, cpgjax sweep / report): batching must not change results; resume; figures; report."""
+"""Sweeps (cpgjax.experiments.sweep, cpgjax sweep / report): batching must not change results; resume;
+figures; report."""
 
 from __future__ import annotations
 
@@ -11,9 +12,11 @@ import numpy as np
 import pytest
 from runcases import same_rows
 
-from cpgjax import cli, sweep
+from cpgjax import cli
+from cpgjax.experiments import sweep
+from cpgjax.io import sweepdir
+from cpgjax.io.results import ResultsError, read_run
 from cpgjax.plots import thesis
-from cpgjax.results import ResultsError, read_run
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WL = os.path.join(ROOT, "models", "quadruped.wl")
@@ -32,7 +35,7 @@ def quad_sweep(tmp_path_factory):
 
 
 def test_layout_and_manifest(quad_sweep):
-    cells = sweep.find_runs(quad_sweep)
+    cells = sweepdir.find_runs(quad_sweep)
     assert sorted(cells) == ["amc_M3", "ga_n6_mu0.2_g0.1_p0_xoff", "ga_n6_mu0.2_g0.1_p0_xon",
                              "ga_n6_mu0.2_g0.1_p2_xoff", "ga_n6_mu0.2_g0.1_p2_xon", "random"]
     assert all(len(v) == 2 for v in cells.values())
@@ -61,7 +64,7 @@ def test_baselines_propose_as_cpgjax_search_and_score_their_genomes(quad_sweep, 
     import jax
     import jax.numpy as jnp
 
-    problem = sweep.make_problem({"model": WL, "time": 0.5})
+    problem = sweep.sweep_problem({"model": WL, "time": 0.5})
     evaluate = jax.jit(problem.evaluate)
     for method, extra, cell in (("random", [], "random"), ("amc", ["--M", "3"], "amc_M3")):
         single = str(tmp_path / f"{cell}.h5")
@@ -81,7 +84,7 @@ def test_resume_after_interruption_equals_uninterrupted(quad_sweep, tmp_path):
     specs = sweep.plan(out, sweep.ga_grid(gamma=(0.1,), pocket=(0, 2), crossover=(False, True), population=(6,),
                                           generations=3)
                        + sweep.baseline_cells(["random", "amc3"], samples=18, batch=6), [0, 1])
-    problem = sweep.make_problem({"model": WL, "time": 0.5, "terrain": None, "delta": None})
+    problem = sweep.sweep_problem({"model": WL, "time": 0.5, "terrain": None, "delta": None})
     s = sweep.run_sweep(problem, specs, progress=False, stop_after=1)        # interrupted after 1 generation
     assert s["evaluations"] == sum(sp.cfg.population for sp in specs)
     assert not sweep.complete(specs)
@@ -110,7 +113,7 @@ def test_mismatching_settings_are_refused(tmp_path):
     assert cli.main(["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "1",
                      "--out", out, "--quiet"]) == 1
     with pytest.raises(ResultsError):
-        sweep.run_sweep(sweep.make_problem({"model": "analytic:sphere:10"}),
+        sweep.run_sweep(sweep.sweep_problem({"model": "analytic:sphere:10"}),
                         sweep.plan(out, sweep.ga_grid(population=(4,), generations=2), [0]), progress=False)
 
 
@@ -120,7 +123,7 @@ def test_generations_can_be_extended(tmp_path):
             "--quiet"]
     assert cli.main([*base, "--generations", "2"]) == 0
     assert cli.main([*base, "--generations", "5"]) == 0
-    for files in sweep.find_runs(out).values():
+    for files in sweepdir.find_runs(out).values():
         for p in files:
             assert read_run(p).completed == 5
 
@@ -138,20 +141,21 @@ def test_cpgjax_best_plot_and_report_on_cells(quad_sweep, tmp_path, capsys):
 
 
 def test_every_thesis_figure(quad_sweep):
-    ga_all = sweep.select(quad_sweep, "ga")
-    assert len(ga_all) == 8 and len(sweep.select(quad_sweep, "ga", pocket=2, crossover=True)) == 2
+    ga_all = sweepdir.runs_matching(quad_sweep, "ga")
+    assert len(ga_all) == 8 and len(sweepdir.runs_matching(quad_sweep, "ga", pocket=2, crossover=True)) == 2
     cells = thesis.load_cells(ga_all)
     assert len(cells) == 4 and all(c.fitness.shape == (2, 3, 6) for c in cells)
     c = cells[0]
     np.testing.assert_array_equal(c.best_so_far()[:, -1], np.nanmax(c.fitness, axis=(1, 2)))
-    figs = [thesis.fig_6_5(sweep.select(quad_sweep, "ga", pocket=0, crossover=False)),
+    figs = [thesis.fig_6_5(sweepdir.runs_matching(quad_sweep, "ga", pocket=0, crossover=False)),
             thesis.fig_6_6(paths=ga_all, generations=3),
-            thesis.fig_6_7(sweep.select(quad_sweep, "ga", pocket=0)),
-            thesis.fig_6_8(sweep.select(quad_sweep, "ga", pocket=2, crossover=False)),
-            thesis.fig_6_9(sweep.select(quad_sweep, "ga", pocket=2, crossover=True)),
-            thesis.fig_6_10(sweep.select(quad_sweep, "random")),
-            thesis.fig_6_11(sweep.select(quad_sweep, "amc")),
-            thesis.fig_6_12(ga_all, sweep.select(quad_sweep, "random") + sweep.select(quad_sweep, "amc"))]
+            thesis.fig_6_7(sweepdir.runs_matching(quad_sweep, "ga", pocket=0)),
+            thesis.fig_6_8(sweepdir.runs_matching(quad_sweep, "ga", pocket=2, crossover=False)),
+            thesis.fig_6_9(sweepdir.runs_matching(quad_sweep, "ga", pocket=2, crossover=True)),
+            thesis.fig_6_10(sweepdir.runs_matching(quad_sweep, "random")),
+            thesis.fig_6_11(sweepdir.runs_matching(quad_sweep, "amc")),
+            thesis.fig_6_12(ga_all, sweepdir.runs_matching(quad_sweep, "random")
+                            + sweepdir.runs_matching(quad_sweep, "amc"))]
     for f in figs:
         assert f.axes and f.canvas is not None
         f.canvas.draw()
@@ -176,7 +180,7 @@ def test_sweep_killed_mid_run_resumes_to_the_uninterrupted_result(tmp_path):
     import sys
     import time
 
-    from cpgjax.results import read_attrs
+    from cpgjax.io.results import read_attrs
 
     def argv(out):
         return ["sweep", "analytic:sphere:10", "--population", "4", "--gamma", "0,1", "--pocket", "0,2",
@@ -201,12 +205,12 @@ def test_sweep_killed_mid_run_resumes_to_the_uninterrupted_result(tmp_path):
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == -signal.SIGKILL, "the sweep finished before it could be killed"
-    done = [read_run(p).completed for fs in sweep.find_runs(out).values() for p in fs]
+    done = [read_run(p).completed for fs in sweepdir.find_runs(out).values() for p in fs]
     assert 0 < min(done) and max(done) < 150
     assert cli.main(argv(out)) == 0
     ref = tmp_path / "ref"
     assert cli.main(argv(ref)) == 0
-    for cell, files in sweep.find_runs(ref).items():
+    for cell, files in sweepdir.find_runs(ref).items():
         for p in files:
             same_rows(read_run(p), read_run(out / cell / os.path.basename(p)))
 

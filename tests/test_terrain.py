@@ -4,7 +4,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from cpgjax.description import TerrainDef
+from cpgjax.sim.description import TerrainDef
 from cpgjax.sim.terrain import height_and_normal, make_terrain
 
 

@@ -7,8 +7,8 @@ import textwrap
 
 import pytest
 
-from cpgjax.description import Description, DescriptionError, ServoDef
-from cpgjax.wl import format_wl, load_wl, parse_wl
+from cpgjax.io.wl import format_wl, load_wl, parse_wl
+from cpgjax.sim.description import Description, DescriptionError, ServoDef
 
 # The excerpt of Ch. 3.5.1, verbatim but for its "..." lines.
 THESIS_EXCERPT = """\

@@ -17,7 +17,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from cpgjax.results import Run, read_run
+from cpgjax.io.results import Run, read_run
 
 
 def run_label(run: Run) -> str:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cpgjax.description import Description, DescriptionError, ObjectDef
+from cpgjax.sim.description import Description, DescriptionError, ObjectDef
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
 from cpgjax.sim.terrain import Terrain, make_terrain
 
@@ -338,10 +338,3 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc,
     )
-
-
-def load_model(path: str, *, dt: float | None = None, terrain: str | None = None) -> Model:
-    """Parse a `.wl` file and build its Model."""
-    from cpgjax.wl import load_wl
-
-    return build_model(load_wl(path), dt=dt, terrain=terrain)

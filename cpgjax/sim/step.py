@@ -2,7 +2,7 @@
 
 The stages follow the thesis's dynamics engine (Ch. 3.4.1, Appendix B): pivot positions
 and velocities, joint penalties, servo torques, ground collisions, gravity, then
-integration.  All arrays are batch-last (see `cpgjax.sim.layout`): the same code runs
+integration.  All arrays are batch-last (see `cpgjax.sim.state`): the same code runs
 one robot (B = 1) or thousands.
 """
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.description import TerrainDef
+from cpgjax.sim.description import TerrainDef
 
 EXTENT_X = (-3.0, 3.0)
 EXTENT_Y = (-3.0, 12.0)

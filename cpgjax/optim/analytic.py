@@ -1,51 +1,20 @@
-"""The optimisation problem the GA and the baselines see: genomes in, fitness out.
+"""Cheap *analytic* problems with a known optimum (not part of the thesis).
 
-A :class:`Problem` hides the simulator: the real one is built from a `.wl` model by
-:func:`cpgjax.fitness.make_problem` (the thesis fitness, eq. 4.5-4.6, averaged over an
-episode).  The genome of a controller is its `.ctl` coefficients flattened row-major, per
-controlled joint ``c0 a1 b1 ... aK bK`` (Ch. 2.2.1), searched in ``[-0.8, 0.8]`` per gene
-(the hypercube of side 1.6 of Ch. 6.2.5).
-
-This module also holds cheap *analytic* problems with a known optimum, used by the tests
-and by the CLI demo models ``analytic:sphere:G`` and ``analytic:diverging:G`` (see
-:func:`analytic_problem`).  They are not part of the thesis.
+Used by the tests and by the CLI demo models ``analytic:sphere:G`` and
+``analytic:diverging:G`` (:func:`analytic_problem`): the GA and the baselines run on them
+with no simulator involved.
 """
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-Evaluate = Callable[[jax.Array], dict[str, jax.Array]]
-
-
-@dataclass(frozen=True)
-class Problem:
-    """A fitness to maximise over genomes in the box ``[lower, upper]^n_genes``.
-
-    ``evaluate(genomes [N, G] float32)`` returns ``{"fitness": [N] float32, "diverged": [N] bool}``
-    plus optional per-individual metrics (``[N]`` arrays, e.g. ``distance``, ``speed``, ``tilt``).
-    It must be pure, deterministic and traceable inside ``jit``/``lax.scan`` (no host callbacks);
-    ``N`` may be any size.  Fitness may be NaN/inf for diverged episodes: the GA replaces such
-    values by the population's worst finite fitness and counts them (see :mod:`cpgjax.ga`).
-
-    ``base_genome`` is the thesis's start (Ch. 4.3): one 0.5 Hz sinusoid per joint.
-    ``meta`` holds strings and numbers stored as HDF5 attributes of a run (model path and text,
-    simulation settings, ``n_dof`` and ``harmonics`` to turn a genome back into a `.ctl`).
-    """
-
-    name: str
-    n_genes: int
-    base_genome: np.ndarray
-    evaluate: Evaluate
-    lower: float = -0.8
-    upper: float = 0.8
-    meta: dict = field(default_factory=dict)
+from cpgjax.episode.cpg import sinusoid_genome
+from cpgjax.optim.problem import Problem
 
 
 def default_optimum(n_genes: int) -> np.ndarray:
@@ -56,8 +25,6 @@ def default_optimum(n_genes: int) -> np.ndarray:
 
 def _analytic_base(n_genes: int) -> tuple[np.ndarray, dict]:
     """Base genome and genome shape for an analytic problem: CPG-shaped (K = 2) when G % 5 == 0."""
-    from cpgjax.cpg import sinusoid_genome
-
     if n_genes % 5 == 0:
         base = sinusoid_genome(n_genes // 5, 2).astype(np.float32)
         return base, {"n_dof": n_genes // 5, "harmonics": 2}

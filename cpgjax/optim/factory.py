@@ -1,33 +1,47 @@
-"""The thesis's fitness (eq. 4.5-4.6) and the bridge from a `.wl` model to a GA Problem.
+"""The one problem factory: a `.wl` model (the simulator, eq. 4.5-4.6) or an analytic test problem.
 
-Instantaneous fitness ``f = v_y S(theta)`` with the vestibular stability
-``S = delta cos^2(theta) / ((delta - 1) cos^2(theta) + 1)`` (eq. 4.5, eq. 6.2), theta the
-angle between the body normal and the vertical.  The episode fitness is its time
-average (eq. 4.6), never above the mean forward speed.  A body turned over (normal
-pointing down, cos(theta) < 0) has S = 0: it scores as fallen, not as upright, which
-the symmetric cos^2 alone would not do.
+``make_problem(MODEL, ...)`` is what ``cpgjax evolve``, ``search`` and ``sweep`` all call:
+MODEL is a `.wl` path or ``analytic:KIND:G`` (:mod:`cpgjax.optim.analytic`).  The settings
+given are recorded in the problem's meta (``cli_problem_args``) so that a run can be resumed
+with exactly the problem it was made with.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
+
 import jax.numpy as jnp
 import numpy as np
 
-DEFAULT_DELTA = 8.0
+from cpgjax.episode.batch import evaluate
+from cpgjax.episode.cpg import sinusoid_genome
+from cpgjax.episode.fitness import DEFAULT_DELTA
+from cpgjax.io.wl import load_model
+from cpgjax.optim.analytic import analytic_problem
+from cpgjax.optim.problem import Problem
 
 
-def stability(cos_theta, delta=DEFAULT_DELTA):
-    """Vestibular stability S(theta) in [0, 1] from cos(theta) (eq. 6.2); 0 when upside down."""
-    c2 = jnp.square(jnp.maximum(cos_theta, 0.0))
-    return delta * c2 / ((delta - 1.0) * c2 + 1.0)
+def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
+                 delta: float | None = None, replicas: int | None = None, chunk: int | None = None) -> Problem:
+    """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
+
+    ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
+    is the simulator's chunk (results do not depend on it; a sweep picks one that pads its batch little).
+    """
+    if model.startswith("analytic:"):
+        problem = analytic_problem(model)
+    else:
+        kw: dict = {"time": time, "terrain": terrain}
+        for k, v in (("delta", delta), ("replicas", replicas), ("chunk", chunk)):
+            if v is not None:
+                kw[k] = v
+        problem = wl_problem(model, **kw)
+    cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas}
+    return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
 
 
-def instantaneous(v_forward, cos_theta, delta=DEFAULT_DELTA):
-    """eq. 4.5: forward speed weighted by the stability."""
-    return v_forward * stability(cos_theta, delta)
-
-
-def make_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,
+def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float = DEFAULT_DELTA, chunk: int = 256, dt: float | None = None,
                  replicas: int = 1, jitter: float = 1e-3):
     """A GA Problem for a `.wl` model: genome = CPG coefficients of every controlled joint.
@@ -39,11 +53,6 @@ def make_problem(wl_path: str, *, time: float | None = None, terrain: str | None
     (``replicas = 1``, the default); evolved gaits can be chaotic, and a single episode
     then rewards lucky controllers (docs/evolution.md, "A noisy fitness").
     """
-    from cpgjax.cpg import sinusoid_genome
-    from cpgjax.problem import Problem
-    from cpgjax.sim.episode import evaluate
-    from cpgjax.sim.model import load_model
-
     model = load_model(wl_path, dt=dt, terrain=terrain)
     n_ctrl, n_coeff = model.n_ctrl, model.n_coeff
     T = model.time_max if time is None else float(time)
@@ -79,6 +88,4 @@ def make_problem(wl_path: str, *, time: float | None = None, terrain: str | None
 
 def base_genome(model) -> np.ndarray:
     """The GA's starting controller: one 0.5 Hz sinusoid per joint (Ch. 4.3), amplitude 0.3 rad."""
-    from cpgjax.cpg import sinusoid_genome
-
     return sinusoid_genome(model.n_ctrl, model.harmonics, amplitude=0.3)

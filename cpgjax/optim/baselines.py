@@ -1,8 +1,9 @@
 """Baselines of Ch. 6.2.5-6.2.6 on the GA's budget: uniform random search and adaptive Monte Carlo.
 
 Both are written as the GA is: a pure ``propose(state, key, gen) -> genomes`` and a pure
-``update(state, genomes, fitness, gen) -> state``, driven by :func:`cpgjax.evolve.run_search`
-with the same chunked ``lax.scan``, the same keys (``fold_in(run_key, gen)``) and the same
+``update(state, genomes, fitness, gen) -> state`` over a typed state, driven through
+:mod:`cpgjax.optim.algorithm` by :func:`cpgjax.experiments.evolve.run_search` with the same
+chunked ``lax.scan``, the same keys (``fold_in(run_key, gen)``) and the same
 HDF5 layout (a "generation" is one batch of evaluations).
 
 **Random search** (Fig. 6.10): every sample uniform in the hypercube ``[-0.8, 0.8]^G``
@@ -34,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -80,6 +82,18 @@ class SearchConfig:
         return dataclasses.asdict(self)
 
 
+class RandomState(NamedTuple):
+    """Random search keeps no state."""
+
+
+class AMCState(NamedTuple):
+    """Adaptive Monte Carlo: each variable's centre and best fitness, and the current box half-width."""
+
+    center: jax.Array   # [M, G] float32
+    best: jax.Array     # [M] float32, -inf before the first valid sample
+    width: jax.Array    # [] float32
+
+
 def random_propose(key: jax.Array, n: int, n_genes: int, lower: float, upper: float) -> jax.Array:
     """Fig. 6.10: ``n`` genomes uniform in the hypercube."""
     return jax.random.uniform(key, (n, n_genes), jnp.float32, lower, upper)
@@ -92,32 +106,31 @@ def amc_width(gen, iterations: int, lower: float, upper: float, width_end: float
     return w0 * (width_end / w0) ** jnp.minimum(frac, 1.0)
 
 
-def amc_init(M: int, n_genes: int, lower: float, upper: float) -> dict[str, jax.Array]:
-    """Every variable starts at the centre of the cube with no best estimate."""
-    return {"center": jnp.full((M, n_genes), 0.5 * (lower + upper), jnp.float32),
-            "best": jnp.full((M,), -jnp.inf, jnp.float32)}
+def amc_init(M: int, n_genes: int, lower: float, upper: float) -> AMCState:
+    """Every variable starts at the centre of the cube with no best estimate; the box is the whole cube."""
+    return AMCState(center=jnp.full((M, n_genes), 0.5 * (lower + upper), jnp.float32),
+                    best=jnp.full((M,), -jnp.inf, jnp.float32), width=jnp.float32(0.5 * (upper - lower)))
 
 
-def amc_propose(state: dict[str, jax.Array], key: jax.Array, width, per_variable: int,
+def amc_propose(state: AMCState, key: jax.Array, width, per_variable: int,
                 lower: float, upper: float) -> jax.Array:
     """``M * per_variable`` samples, uniform in each variable's box around its centre (within the cube)."""
-    c = state["center"]
+    c = state.center
     lo = jnp.maximum(c - width, lower)[:, None, :]
     hi = jnp.minimum(c + width, upper)[:, None, :]
     u = jax.random.uniform(key, (c.shape[0], per_variable, c.shape[1]), jnp.float32)
     return (lo + u * (hi - lo)).reshape(-1, c.shape[1])
 
 
-def amc_update(state: dict[str, jax.Array], genomes: jax.Array, fitness: jax.Array,
-               diverged: jax.Array) -> dict[str, jax.Array]:
+def amc_update(state: AMCState, genomes: jax.Array, fitness: jax.Array, diverged: jax.Array) -> AMCState:
     """Each variable moves its centre to its best new sample if that beats its best so far."""
-    M = state["center"].shape[0]
+    M = state.center.shape[0]
     bad = diverged | ~jnp.isfinite(fitness)
     f = jnp.where(bad, -jnp.inf, fitness).reshape(M, -1)
     g = genomes.reshape(M, f.shape[1], -1)
     i = jnp.argmax(f, axis=1)
     fb = jnp.take_along_axis(f, i[:, None], axis=1)[:, 0]
     gb = jnp.take_along_axis(g, i[:, None, None], axis=1)[:, 0]
-    better = fb > state["best"]
-    return {"center": jnp.where(better[:, None], gb, state["center"]),
-            "best": jnp.where(better, fb, state["best"])}
+    better = fb > state.best
+    return state._replace(center=jnp.where(better[:, None], gb, state.center),
+                          best=jnp.where(better, fb, state.best))

@@ -18,9 +18,9 @@ import numpy as np
 
 def timestep_study(model_path: str, ctl_path: str, dts, *, time_s: float = 10.0, n_random: int = 64,
                    seed: int = 0, out: str | None = None):
-    from cpgjax.ctl import read_ctl
-    from cpgjax.sim.episode import simulate
-    from cpgjax.sim.model import load_model
+    from cpgjax.episode.batch import simulate
+    from cpgjax.io.ctl import read_ctl
+    from cpgjax.io.wl import load_model
 
     base = load_model(model_path)
     trot = np.asarray(read_ctl(ctl_path, n_dof=base.n_ctrl, harmonics=base.harmonics).coeffs)

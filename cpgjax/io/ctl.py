@@ -13,7 +13,7 @@ Each DOF line holds the 2K+1 coefficients of (thesis Ch. 2.2.1, SPEC §5)
 the genetic algorithm is the coefficient matrix flattened row by row
 (:func:`coeffs_to_genome`, :func:`genome_to_coeffs`).
 
-Errors raise :class:`cpgjax.description.DescriptionError` (``path:line: message``).
+Errors raise :class:`cpgjax.errors.DescriptionError` (``path:line: message``).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from cpgjax.description import DescriptionError
+from cpgjax.sim.description import DescriptionError
 
 __all__ = ["Control", "parse_ctl", "read_ctl", "format_ctl", "write_ctl", "genome_to_coeffs",
            "coeffs_to_genome"]

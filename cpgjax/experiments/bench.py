@@ -18,7 +18,7 @@ DEFAULT_BATCHES = (1, 20, 256, 1024, 4096)
 
 
 def _controllers(model, n, seed=0):
-    from cpgjax.cpg import sinusoid_genome
+    from cpgjax.episode.cpg import sinusoid_genome
 
     rng = np.random.default_rng(seed)
     base = sinusoid_genome(model.n_ctrl, model.harmonics).reshape(model.n_ctrl, model.n_coeff)
@@ -29,7 +29,7 @@ def measure(model, batch: int, time_s: float, *, chunk: int = 256, devices=None,
     """(compile_s, run_s) of one episode of ``time_s`` for ``batch`` robots (fresh compile)."""
     import jax
 
-    from cpgjax.sim.episode import evaluate
+    from cpgjax.episode.batch import evaluate
 
     coeffs = jax.numpy.asarray(_controllers(model, batch), jax.numpy.float32)
     f = jax.jit(lambda c: evaluate(model, c, time=time_s, chunk=chunk, devices=devices))
@@ -50,7 +50,7 @@ def measure_vmap(model, batch: int, time_s: float):
     import jax
     import jax.numpy as jnp
 
-    from cpgjax.sim.episode import rollout
+    from cpgjax.episode.rollout import rollout
 
     coeffs = jnp.asarray(_controllers(model, batch), jnp.float32)
     one = lambda c: rollout(model, c[..., None], time=time_s)  # noqa: E731
@@ -65,7 +65,7 @@ def measure_vmap(model, batch: int, time_s: float):
 
 
 def row(model, batch, time_s, label="", vmap=False, **kw):
-    from cpgjax.sim.episode import schedule
+    from cpgjax.episode.rollout import schedule
 
     compile_s, run_s = measure_vmap(model, batch, time_s) if vmap else measure(model, batch, time_s, **kw)
     inner, outer = schedule(model, time_s)
@@ -138,8 +138,8 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
     """The main table (and the tricks table); returns the rows."""
     import jax
 
+    from cpgjax.io.wl import load_model
     from cpgjax.sim import rotation
-    from cpgjax.sim.model import load_model
 
     model = load_model(model_path)
     print(f"machine: {machine()}")
@@ -193,9 +193,9 @@ def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 
     """
     import jax
 
-    from cpgjax.mjcf_export import MJ_TIMESTEP, load
-    from cpgjax.reference import mjx_run, mujoco_run
-    from cpgjax.sim.model import load_model
+    from cpgjax.crosscheck.engines import mjx_run, mujoco_run
+    from cpgjax.crosscheck.mjcf import MJ_TIMESTEP, load
+    from cpgjax.io.wl import load_model
 
     model = load_model(model_path)
     print(f"machine: {machine()}")
@@ -240,7 +240,8 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
 
     import jax
 
-    from cpgjax import evolve, ga, sweep
+    from cpgjax.experiments import evolve, sweep
+    from cpgjax.optim import ga
 
     print(f"machine: {machine()}, {len(jax.devices())} host devices")
     print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run")
@@ -253,7 +254,7 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
             cells.append(dataclasses.replace(c, samples=c.batch * generations))
     rows = []
 
-    problem = sweep.make_problem(pa)
+    problem = sweep.sweep_problem(pa)
     cfg = ga.GAConfig(population=20, generations=generations, pocket=4, seed=0)
     first = evolve.run_ga(problem, cfg)                 # compiles (the chunk function is cached)
     c0, t0 = time.process_time(), time.perf_counter()
@@ -268,7 +269,7 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
     with tempfile.TemporaryDirectory() as d:
         specs = sweep.plan(d, cells, range(seeds))
         batch = sweep.total_batch(specs)
-        problem = sweep.make_problem(pa, batch=batch)
+        problem = sweep.sweep_problem(pa, batch=batch)
         s = sweep.run_sweep(problem, specs, progress=progress)
     rows.append({"label": f"sweep, {len(specs)} runs in one program", "runs": len(specs), "batch": batch,
                  "evals_s": s["evals_per_second"], "cores": s["cores_busy"], "compile_s": s["compile_time"]})

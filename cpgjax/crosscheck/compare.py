@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from cpgjax.reference import joint_angles, mjx_run, mujoco_run, spearman
+from cpgjax.crosscheck.engines import joint_angles, mjx_run, mujoco_run, spearman
 
 ENGINES = ("penalty", "mujoco", "mjx")
 
@@ -20,14 +20,14 @@ ENGINES = ("penalty", "mujoco", "mjx")
 def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_perturbed: int = 0,
                 base_ctl: str | None = None, seed: int = 0):
     """(coeffs [N, n_ctrl, 2K+1], labels) from .ctl files, the best of GA runs, random and perturbed ones."""
-    from cpgjax.ctl import read_ctl
+    from cpgjax.io.ctl import read_ctl
 
     out, labels = [], []
     for f in ctl_files:
         out.append(read_ctl(f, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs)
         labels.append(os.path.basename(f))
     for f in run_files:
-        from cpgjax.results import read_run
+        from cpgjax.io.results import read_run
 
         run = read_run(f)
         fit = run.valid_fitness()  # [gens, N]
@@ -58,7 +58,7 @@ def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_pertu
 def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mjx: bool = True,
                    show: int = 0, out_dir: str | None = None):
     """Run every engine; returns (rows, summary) and writes table + plots into out_dir."""
-    from cpgjax.sim.episode import simulate
+    from cpgjax.episode.batch import simulate
 
     res = {}
     pen = simulate(model, coeffs, time=time, delta=delta, record=True)
@@ -114,7 +114,7 @@ def _plots(model, pen, mj_q, i, label, out_dir, mj_dt, time):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cpgjax.mjcf_export import load
+    from cpgjax.crosscheck.mjcf import load
 
     mj = load(model)
     tr = pen["traj"]
@@ -142,10 +142,10 @@ def _plots(model, pen, mj_q, i, label, out_dir, mj_dt, time):
     fig.savefig(os.path.join(out_dir, "joints.png"), dpi=90)
     plt.close(fig)
     # Fig. 6.4 style: forward position vs time, and the CM path in the plane
-    from cpgjax.reference import metrics_from_qpos
+    from cpgjax.crosscheck.engines import metrics_from_qpos
 
     cm_mj = metrics_from_qpos(model, mj, mj_q[i:i + 1], mj.opt.timestep)["cm"][0]
-    from cpgjax.logs import pose_rows
+    from cpgjax.io.logs import pose_rows
 
     single = {k: (v[..., i] if k != "t" else v) for k, v in tr.items()}
     rows = pose_rows(single, model.track)

@@ -3,15 +3,14 @@
 ``cpgjax.cli`` calls :func:`register` with its ``add_subparsers()`` object.  Each
 subcommand's function takes the parsed arguments and returns an exit code.
 
-MODEL is a `.wl` file (:func:`cpgjax.fitness.make_problem`) or, as a test/demo feature that
+MODEL is a `.wl` file (:func:`cpgjax.optim.factory.make_problem`) or, as a test/demo feature that
 needs no simulator, ``analytic:sphere:G`` / ``analytic:diverging:G``
-(:func:`cpgjax.problem.analytic_problem`).
+(:func:`cpgjax.optim.analytic.analytic_problem`).
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import sys
@@ -25,8 +24,8 @@ PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas")
 
 def register(subparsers: Any) -> None:
     """Add ``evolve``, ``search``, ``best`` and ``plot`` to an argparse subparsers object."""
-    from cpgjax.ga import MUTATIONS, SELECTIONS, GAConfig
-    from cpgjax.search import METHODS, SearchConfig
+    from cpgjax.optim.baselines import METHODS, SearchConfig
+    from cpgjax.optim.ga import MUTATIONS, SELECTIONS, GAConfig
 
     d, s = GAConfig(), SearchConfig()
 
@@ -99,31 +98,11 @@ def _fail(cmd: str, err: Exception) -> int:
     return 1
 
 
-def make_problem(model: str, *, time: float | None, terrain: str | None, delta: float | None,
-                 replicas: int | None = None):
-    """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the CLI's settings in meta."""
-    from cpgjax.problem import analytic_problem
-
-    if model.startswith("analytic:"):
-        problem = analytic_problem(model)
-    else:
-        from cpgjax.fitness import make_problem as make_wl_problem
-
-        kw: dict[str, Any] = {"time": time, "terrain": terrain}
-        if delta is not None:
-            kw["delta"] = delta
-        if replicas is not None:
-            kw["replicas"] = replicas
-        problem = make_wl_problem(model, **kw)
-    cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas}
-    return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
-
-
 def _stored(path: str | None, resume: bool) -> tuple[dict[str, Any], dict[str, Any]]:
     """(stored config, stored CLI problem args) when resuming an existing file, else empty."""
     if not (resume and path and os.path.exists(path)):
         return {}, {}
-    from cpgjax.results import read_attrs
+    from cpgjax.io.results import read_attrs
 
     a = read_attrs(path)
     meta = json.loads(a.get("meta", "{}"))
@@ -157,9 +136,10 @@ def _report(summary: dict[str, Any]) -> None:
 
 
 def cmd_evolve(args: argparse.Namespace) -> int:
-    from cpgjax.evolve import run_ga
-    from cpgjax.ga import GAConfig
-    from cpgjax.results import ResultsError
+    from cpgjax.experiments.evolve import run_ga
+    from cpgjax.io.results import ResultsError
+    from cpgjax.optim.factory import make_problem
+    from cpgjax.optim.ga import GAConfig
 
     try:
         out = args.out
@@ -179,9 +159,10 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 
 
 def cmd_search(args: argparse.Namespace) -> int:
-    from cpgjax.evolve import run_search
-    from cpgjax.results import ResultsError
-    from cpgjax.search import SearchConfig
+    from cpgjax.experiments.evolve import run_search
+    from cpgjax.io.results import ResultsError
+    from cpgjax.optim.baselines import SearchConfig
+    from cpgjax.optim.factory import make_problem
 
     try:
         out = args.out
@@ -204,7 +185,7 @@ def cmd_search(args: argparse.Namespace) -> int:
 def cmd_best(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from cpgjax.results import ResultsError, read_run
+    from cpgjax.io.results import ResultsError, read_run
 
     try:
         run = read_run(args.run)
@@ -225,7 +206,7 @@ def cmd_best(args: argparse.Namespace) -> int:
         if args.ctl:
             if coeffs is None:
                 raise ValueError("the run does not record n_dof and harmonics: cannot write a .ctl")
-            from cpgjax.ctl import write_ctl
+            from cpgjax.io.ctl import write_ctl
 
             d = os.path.dirname(args.ctl)
             if d:
@@ -238,8 +219,8 @@ def cmd_best(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    from cpgjax.io.results import ResultsError
     from cpgjax.plots import plot_runs
-    from cpgjax.results import ResultsError
 
     out = args.out or os.path.splitext(args.runs[0])[0] + ".png"
     try:

@@ -1,4 +1,4 @@
-"""Parser for the `.wl` description file (thesis Ch. 3.5.1), producing :mod:`cpgjax.description` records.
+"""Parser for the `.wl` description file (thesis Ch. 3.5.1), producing :mod:`cpgjax.sim.description` records.
 
 The thesis shows only an excerpt of the format (Ch. 3.5.1: ``ColorDef``, ``TimeMax``,
 ``Simulate``, ``Display``, ``LogRate``, ``Friction``, ``Object``, ``Compound``, ``Joint``,
@@ -9,8 +9,8 @@ docs/wl-format.md is the reference.
 The format is line oriented: ``#`` starts a comment, keywords are case-insensitive, names
 (objects, compounds, colours) are case-sensitive, and blocks are written ``{ ... }`` with
 the ``{`` on the header line or on the next line.  Parsing is all-or-nothing: the text is
-read fully, then checked, and only then a :class:`~cpgjax.description.Description` is
-returned.  Every problem raises :class:`~cpgjax.description.DescriptionError`, whose text
+read fully, then checked, and only then a :class:`~cpgjax.sim.description.Description` is
+returned.  Every problem raises :class:`~cpgjax.errors.DescriptionError`, whose text
 is ``path:line: what is wrong and how to fix it``.
 
 Public API: :func:`parse_wl`, :func:`load_wl`, :func:`format_wl`.
@@ -26,7 +26,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from cpgjax.description import (
+from cpgjax.sim.description import (
     CompoundDef,
     Description,
     DescriptionError,
@@ -37,6 +37,7 @@ from cpgjax.description import (
     TerrainDef,
     Vec3,
 )
+from cpgjax.sim.model import Model, build_model
 
 __all__ = ["parse_wl", "load_wl", "format_wl", "TOP_KEYWORDS", "OBJECT_KEYWORDS", "COMPOUND_KEYWORDS",
            "JOINT_KEYWORDS"]
@@ -943,3 +944,8 @@ def format_wl(desc: Description) -> str:
         out += ["}", ""]
     out += [f"Log {lg.body} {lg.file}" for lg in desc.logs]
     return "\n".join(out) + "\n"
+
+
+def load_model(path: str | os.PathLike[str], *, dt: float | None = None, terrain: str | None = None) -> Model:
+    """Parse a `.wl` file and build its simulator Model."""
+    return build_model(load_wl(path), dt=dt, terrain=terrain)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cpgjax.logs import quat_to_mat_np
+from cpgjax.io.logs import quat_to_mat_np
 
 
 def contact_points(model, traj) -> np.ndarray:

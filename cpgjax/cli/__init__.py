@@ -10,7 +10,7 @@ import numpy as np
 
 
 def _load_controller(args, model):
-    from cpgjax.ctl import read_ctl
+    from cpgjax.io.ctl import read_ctl
 
     if not args.ctl:
         return np.zeros((model.n_ctrl, model.n_coeff)), "-"
@@ -19,9 +19,9 @@ def _load_controller(args, model):
 
 
 def cmd_simulate(args) -> int:
-    from cpgjax.logs import pose_rows, write_log
-    from cpgjax.sim.episode import simulate
-    from cpgjax.sim.model import load_model
+    from cpgjax.episode.batch import simulate
+    from cpgjax.io.logs import pose_rows, write_log
+    from cpgjax.io.wl import load_model
 
     model = load_model(args.model, dt=args.dt, terrain=args.terrain)
     if args.gravity is not None:
@@ -45,7 +45,7 @@ def cmd_simulate(args) -> int:
         desc = model.description
         logs = desc.logs if desc and desc.logs else []
         if not logs:
-            from cpgjax.description import LogDef
+            from cpgjax.sim.description import LogDef
 
             logs = [LogDef(body, f"{body.lower()}.log", 0)]
         for lg in logs:
@@ -59,16 +59,16 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from cpgjax.bench import run_bench
+    from cpgjax.experiments.bench import run_bench
 
     batches = tuple(int(b) for b in args.batches.split(","))
     if args.sweep:
-        from cpgjax.bench import bench_sweep
+        from cpgjax.experiments.bench import bench_sweep
 
         bench_sweep(args.model, time_s=args.time, generations=args.generations, seeds=args.seeds)
         return 0
     if args.against:
-        from cpgjax.bench import bench_against_mjx
+        from cpgjax.experiments.bench import bench_against_mjx
 
         bench_against_mjx(args.model, batches=batches, time_s=args.time, chunk=args.chunk)
         return 0
@@ -77,7 +77,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_study_dt(args) -> int:
-    from cpgjax.studies import timestep_study
+    from cpgjax.experiments.studies import timestep_study
 
     timestep_study(args.model, args.ctl, [float(x) for x in args.dts.split(",")], time_s=args.time,
                    out=args.out)
@@ -86,8 +86,8 @@ def cmd_study_dt(args) -> int:
 
 def cmd_robustness(args) -> int:
     """Replay a controller with every gene moved by tiny random amounts: how chaotic is its score?"""
-    from cpgjax.sim.episode import simulate
-    from cpgjax.sim.model import load_model
+    from cpgjax.episode.batch import simulate
+    from cpgjax.io.wl import load_model
 
     model = load_model(args.model, terrain=args.terrain)
     coeffs, name = _load_controller(args, model)
@@ -107,8 +107,8 @@ def cmd_robustness(args) -> int:
 
 
 def cmd_export(args) -> int:
-    from cpgjax.mjcf_export import load, to_mjcf
-    from cpgjax.sim.model import load_model
+    from cpgjax.crosscheck.mjcf import load, to_mjcf
+    from cpgjax.io.wl import load_model
 
     model = load_model(args.model, terrain=args.terrain)
     text = to_mjcf(model)
@@ -122,8 +122,8 @@ def cmd_export(args) -> int:
 
 
 def cmd_crosscheck(args) -> int:
-    from cpgjax.crosscheck import controllers, run_crosscheck, table
-    from cpgjax.sim.model import load_model
+    from cpgjax.crosscheck.compare import controllers, run_crosscheck, table
+    from cpgjax.io.wl import load_model
 
     model = load_model(args.model, terrain=args.terrain)
     here = os.path.dirname(os.path.abspath(args.model))
@@ -221,7 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
     c.set_defaults(func=cmd_crosscheck)
 
-    from cpgjax import cli_evolve, cli_sweep
+    from cpgjax.cli import evolve as cli_evolve
+    from cpgjax.cli import sweep as cli_sweep
 
     cli_evolve.register(sub)
     cli_sweep.register(sub)
@@ -238,7 +239,7 @@ def _default_model() -> str:
 
 
 def main(argv=None) -> int:
-    from cpgjax.description import DescriptionError
+    from cpgjax.sim.description import DescriptionError
 
     parser = build_parser()
     args = parser.parse_args(argv)

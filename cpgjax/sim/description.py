@@ -1,6 +1,6 @@
 """What a `.wl` description file says, as plain data (thesis Ch. 3.5.1).
 
-The parser (`cpgjax.wl`) turns text into a :class:`Description`; the simulator's
+The parser (`cpgjax.io.wl`) turns text into a :class:`Description`; the simulator's
 model builder (`cpgjax.sim.model.build_model`) turns a Description into arrays.
 Every record keeps the line it came from so that later checks can still report
 ``path:line: what is wrong``.
@@ -23,15 +23,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from cpgjax.errors import DescriptionError  # noqa: F401  (re-exported: the description's error type)
+
 Vec3 = tuple[float, float, float]
-
-
-class DescriptionError(ValueError):
-    """A problem in a description or control file, reported as ``path:line: message``."""
-
-    def __init__(self, path: str, line: int, message: str):
-        self.path, self.line, self.message = path, line, message
-        super().__init__(f"{path}:{line}: {message}")
 
 
 @dataclass(frozen=True)

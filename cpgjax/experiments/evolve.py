@@ -1,18 +1,13 @@
 """Drivers: run the GA (:func:`run_ga`) or a baseline search (:func:`run_search`) into an HDF5 file.
 
-Every algorithm is a pure triple ``init / propose / update`` (:class:`Algorithm`).  One
-generation is::
-
-    genomes = propose(params, state, fold_in(k_propose, GEN), GEN)    # GA: the population
-    out     = problem.evaluate(genomes)                                 # one vmapped simulation
-    state   = update(params, state, genomes, fitness, diverged,
-                     fold_in(k_update, GEN), GEN)                       # GA: cpgjax.ga.reproduce
-
-with ``k_init, k_propose, k_update = split(jax.random.key(seed), 3)``.  A chunk of ``chunk``
-generations is one jitted ``lax.scan``; generations past the end of the run inside the last
-chunk are skipped by a ``lax.cond``, so the *same* compiled program runs every chunk, from
-any starting generation.  Between chunks the host appends each generation to the HDF5 file
-(flushed per generation; :mod:`cpgjax.results`) and updates the progress bar.
+Every algorithm goes through the adapter of :mod:`cpgjax.optim.algorithm` (pure ``init /
+propose / update`` over a typed state) and one generation is its shared
+:func:`~cpgjax.optim.algorithm.generation_step` (the sweep runs the same one), with
+``k_init, k_propose, k_update = split(jax.random.key(seed), 3)`` (:func:`run_keys`).  A chunk
+of ``chunk`` generations is one jitted ``lax.scan``; generations past the end of the run inside
+the last chunk are skipped by a ``lax.cond``, so the *same* compiled program runs every chunk,
+from any starting generation.  Between chunks the host appends each generation to the HDF5 file
+(flushed per generation; :mod:`cpgjax.io.results`) and updates the progress bar.
 
 Resume: each row stores the algorithm's state after that generation (``/state/*``; for the
 GA the population bred from it).  ``resume=True`` reads the last complete row and continues
@@ -27,124 +22,17 @@ import json
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax import ga, search
-from cpgjax.problem import Problem
-from cpgjax.results import ResultsError, Row, RunWriter, create_run, read_attrs, read_resume_point
-
-State = dict[str, jax.Array]
-
-
-@dataclass(frozen=True)
-class Algorithm:
-    """A population-based optimiser as pure functions (see the module docstring)."""
-
-    kind: str
-    population: int
-    generations: int
-    config: dict[str, Any]
-    params: Any
-    init: Callable[[Any, jax.Array], State]
-    propose: Callable[[Any, State, jax.Array, jax.Array], jax.Array]
-    update: Callable[[Any, State, jax.Array, jax.Array, jax.Array, jax.Array, jax.Array], State]
-    rate: Callable[[Any, jax.Array], jax.Array]
-    resumable_changes: tuple[str, ...] = ("chunk",)
-
-
-def ga_algorithm(problem: Problem, cfg: ga.GAConfig) -> Algorithm:
-    """The GA of :mod:`cpgjax.ga` as an :class:`Algorithm` (state: the population)."""
-    base, lo, hi = np.asarray(problem.base_genome, np.float32), problem.lower, problem.upper
-    if base.shape != (problem.n_genes,):
-        raise ValueError(f"base_genome has shape {base.shape}, expected ({problem.n_genes},)")
-
-    def init(params, key):
-        return {"population": ga.init_population(key, base, cfg.population, cfg.init_spread, lo, hi)}
-
-    def propose(params, state, key, gen):
-        return state["population"]
-
-    def update(params, state, genomes, fitness, diverged, key, gen):
-        return {"population": ga.reproduce(key, genomes, fitness, params, gen, diverged)}
-
-    def rate(params, gen):
-        return ga.mutation_rate(gen, params.mu_max, params.gamma)
-
-    return Algorithm("ga", cfg.population, cfg.generations, cfg.to_dict(), cfg.params(lo, hi),
-                     init, propose, update, rate, resumable_changes=("chunk", "generations"))
-
-
-def search_algorithm(problem: Problem, cfg: search.SearchConfig) -> Algorithm:
-    """Random search or adaptive Monte Carlo (:mod:`cpgjax.search`) as an :class:`Algorithm`."""
-    n, g, lo, hi = cfg.population, problem.n_genes, problem.lower, problem.upper
-    nan = lambda params, gen: jnp.float32(jnp.nan)  # noqa: E731
-
-    if cfg.method == "random":
-        return Algorithm(
-            "random", n, cfg.iterations, cfg.to_dict(), (),
-            init=lambda params, key: {},
-            propose=lambda params, state, key, gen: search.random_propose(key, n, g, lo, hi),
-            update=lambda params, state, genomes, f, d, key, gen: state,
-            rate=nan)
-
-    K = cfg.iterations
-
-    def init(params, key):
-        return {**search.amc_init(cfg.M, g, lo, hi), "width": jnp.float32(0.5 * (hi - lo))}
-
-    def propose(params, state, key, gen):
-        w = search.amc_width(gen, K, lo, hi, cfg.width_end)
-        return search.amc_propose(state, key, w, cfg.per_variable, lo, hi)
-
-    def update(params, state, genomes, f, d, key, gen):
-        new = search.amc_update({"center": state["center"], "best": state["best"]}, genomes, f, d)
-        return {**new, "width": search.amc_width(gen, K, lo, hi, cfg.width_end).astype(jnp.float32)}
-
-    return Algorithm("amc", n, K, cfg.to_dict(), (), init, propose, update, nan)
-
-
-def make_chunk_fn(problem: Problem, algo: Algorithm, chunk: int):
-    """The jitted ``(params, state, k_propose, k_update, gen0, n_valid) -> (state, rows)`` of one chunk.
-
-    ``rows`` holds, per generation of the chunk (``[chunk, ...]``): genomes, raw fitness,
-    diverged (flag or non-finite fitness), the rate, the metrics and the new state.  Steps
-    ``i >= n_valid`` are skipped (zeros) so one compiled program serves every chunk.
-    """
-    n, g = algo.population, problem.n_genes
-
-    def generation(params, state, k_prop, k_upd, gen):
-        genomes = algo.propose(params, state, jax.random.fold_in(k_prop, gen), gen)
-        ev = problem.evaluate(genomes)
-        fit = jnp.asarray(ev["fitness"], jnp.float32).reshape(n)
-        div = jnp.asarray(ev["diverged"], bool).reshape(n) | ~jnp.isfinite(fit)
-        new = algo.update(params, state, genomes, fit, div, jax.random.fold_in(k_upd, gen), gen)
-        metrics = {k: jnp.asarray(v, jnp.float32).reshape(n) for k, v in ev.items()
-                   if k not in ("fitness", "diverged")}
-        row = {"genomes": genomes.astype(jnp.float32), "fitness": fit, "diverged": div,
-               "rate": jnp.asarray(algo.rate(params, gen), jnp.float32), "metrics": metrics, "state": new}
-        return new, row
-
-    def run_chunk(params, state, k_prop, k_upd, gen0, n_valid):
-        spec = jax.eval_shape(generation, params, state, k_prop, k_upd, gen0)[1]
-
-        def body(state, i):
-            def active(state):
-                return generation(params, state, k_prop, k_upd, gen0 + i)
-
-            def idle(state):
-                return state, jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), spec)
-
-            return jax.lax.cond(i < n_valid, active, idle, state)
-
-        return jax.lax.scan(body, state, jnp.arange(chunk, dtype=jnp.int32))
-
-    del g
-    return jax.jit(run_chunk)
+from cpgjax.errors import ResultsError
+from cpgjax.io.results import Row, RunWriter, create_run, read_attrs, read_resume_point, read_run
+from cpgjax.optim import baselines, ga
+from cpgjax.optim.algorithm import Algorithm, ga_algorithm, make_chunk_fn, search_algorithm
+from cpgjax.optim.problem import Problem
 
 
 def compile_ahead(fn, args: tuple) -> Callable:
@@ -177,20 +65,27 @@ _CHUNK_CACHE: dict[tuple, tuple[Callable, Callable]] = {}
 
 
 def _cached_chunk_fn(problem: Problem, algo: Algorithm, chunk: int, static: tuple) -> Callable:
-    """:func:`make_chunk_fn`, reused across calls with the same ``evaluate`` and static settings.
+    """The jitted chunk of one run (:func:`cpgjax.optim.algorithm.make_chunk_fn` with one group of one run).
 
-    (Several runs of one problem in a process — tests, resume, sweeps of seeds — compile once.)
+    Reused across calls with the same ``evaluate`` and static settings (several runs of one problem
+    in a process, tests, resume, compile once).  Compiled ahead of time on first use
+    (:func:`compile_ahead`).
     """
     key = (id(problem.evaluate), problem.n_genes, problem.lower, problem.upper, algo.kind,
            algo.population, chunk, static)
     hit = _CHUNK_CACHE.get(key)
     if hit is not None and hit[0] is problem.evaluate:
         return hit[1]
-    fn = _CompiledOnFirstCall(make_chunk_fn(problem, algo, chunk))   # same shapes for every hit of the key
+    fn = _CompiledOnFirstCall(make_chunk_fn(problem, [algo], [1], chunk))   # same shapes for every hit of the key
     if len(_CHUNK_CACHE) >= 16:
         _CHUNK_CACHE.pop(next(iter(_CHUNK_CACHE)))
     _CHUNK_CACHE[key] = (problem.evaluate, fn)
     return fn
+
+
+def _one(tree):
+    """A leading axis of 1 on every leaf (one run of a group)."""
+    return jax.tree.map(lambda a: jnp.asarray(a)[None], tree)
 
 
 def run_keys(seed: int) -> tuple[jax.Array, jax.Array, jax.Array]:
@@ -230,7 +125,7 @@ def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int
 
 def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k_init: jax.Array, *,
              resume: bool, overwrite: bool, init: Callable | None = None,
-             metrics: dict | None = None) -> tuple[int, State, float]:
+             metrics: dict | None = None) -> tuple[int, Any, float]:
     """Where a run starts: ``(completed generations, algorithm state, wall time so far)``.
 
     ``resume`` and an existing file: its settings are checked against ``algo`` (the number of
@@ -250,13 +145,14 @@ def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k
                 w.set_attr("cfg_generations", algo.generations)
                 w.set_attr("config", json.dumps(algo.config))
         if completed:
-            return completed, {k: jnp.asarray(stored[k], state_spec[k].dtype) for k in state_spec}, wall0
+            return completed, type(state_spec)(**{k: jnp.asarray(stored[k], s.dtype)
+                                                  for k, s in state_spec._asdict().items()}), wall0
     elif path is not None:
         if os.path.exists(path) and not overwrite:
             raise ResultsError(f"{path} exists; use --resume to continue it or --overwrite to replace it")
         if metrics is None:
             metrics = metrics_spec(problem, algo.population)
-        states = {k: (tuple(s.shape), s.dtype) for k, s in state_spec.items()}
+        states = {k: (tuple(s.shape), s.dtype) for k, s in state_spec._asdict().items()}
         create_run(path, kind=algo.kind, config=algo.config, problem=problem, population=algo.population,
                    generations=algo.generations, metrics=metrics, state=states, overwrite=overwrite)
     return 0, (init or jax.jit(algo.init))(params, k_init), 0.0
@@ -278,7 +174,15 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
     if stop_after is not None:
         target = min(target, completed + int(stop_after))
     t_compile = time.perf_counter()
-    jax.block_until_ready(chunk_fn(params, state, k_prop, k_upd, jnp.int32(0), jnp.int32(0)))  # compile
+    # one group of one run: params, state and keys get a leading run axis of 1
+    params1, k_prop1, k_upd1 = [_one(params)], [k_prop[None]], [k_upd[None]]
+    state1 = [_one(state)]
+
+    def call(state1, gen0, target):
+        return chunk_fn(params1, state1, k_prop1, k_upd1, [jnp.full((1,), gen0, jnp.int32)],
+                        [jnp.full((1,), target, jnp.int32)])
+
+    jax.block_until_ready(call(state1, 0, 0))  # compile (every step idle: nothing is computed)
     compile_time = time.perf_counter() - t_compile
 
     history: dict[str, list] = {"genomes": [], "fitness": [], "diverged": [], "mutation_rate": []}
@@ -290,8 +194,8 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
         while completed < target:
             n_valid = min(chunk, target - completed)
             t0 = time.perf_counter()
-            state, rows = chunk_fn(params, state, k_prop, k_upd, jnp.int32(completed), jnp.int32(n_valid))
-            rows = jax.device_get(rows)
+            state1, rows = call(state1, completed, completed + n_valid)
+            rows = jax.tree.map(lambda a: a[:, 0], jax.device_get(rows[0]))    # [chunk, 1, ...] -> [chunk, ...]
             t1 = time.perf_counter()
             done = []
             for i in range(n_valid):
@@ -300,7 +204,7 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
                 row = Row(genomes=rows["genomes"][i], fitness=fit, diverged=div,
                           mutation_rate=float(rows["rate"][i]), wall_time=wall,
                           metrics={k: v[i] for k, v in rows["metrics"].items()},
-                          state={k: v[i] for k, v in rows["state"].items()})
+                          state={k: v[i] for k, v in rows["state"]._asdict().items()})
                 done.append(row)
                 valid = fit[~div]
                 gbest = float(valid.max()) if valid.size else float("nan")
@@ -335,8 +239,6 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
         summary["history"] = hist
         fit = np.where(hist["diverged"], np.nan, hist["fitness"]) if completed else np.zeros((0, 0))
     else:
-        from cpgjax.results import read_run
-
         run = read_run(path)
         fit, hist = run.valid_fitness(), {"genomes": run.genomes}
     if fit.size and np.any(np.isfinite(fit)):
@@ -366,11 +268,11 @@ def run_ga(problem: Problem, cfg: ga.GAConfig, out: str | os.PathLike[str] | Non
                 desc="evolve")
 
 
-def run_search(problem: Problem, cfg: search.SearchConfig, out: str | os.PathLike[str] | None = None, *,
+def run_search(problem: Problem, cfg: baselines.SearchConfig, out: str | os.PathLike[str] | None = None, *,
                resume: bool = False, overwrite: bool = False, progress: bool = False,
                stop_after: int | None = None,
                callback: Callable[[int, dict[str, float]], None] | None = None) -> dict[str, Any]:
-    """Run a baseline search (:mod:`cpgjax.search`) with the layout, keys and resume of :func:`run_ga`."""
+    """Run a baseline search (:mod:`cpgjax.optim.baselines`) with the layout, keys and resume of :func:`run_ga`."""
     static = tuple(sorted((k, v) for k, v in cfg.to_dict().items() if k not in ("seed", "chunk")))
     return _run(problem, search_algorithm(problem, cfg), out, chunk=cfg.chunk, seed=cfg.seed, static=static,
                 resume=resume,

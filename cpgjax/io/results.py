@@ -54,6 +54,8 @@ from typing import Any
 import h5py
 import numpy as np
 
+from cpgjax.errors import ResultsError
+
 FORMAT = "cpgjax-run"
 FORMAT_VERSION = 1
 ROW_DATASETS = ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate", "wall_time")
@@ -90,10 +92,6 @@ def _attr_value(v: Any) -> Any:
 
 def _json(v: Any) -> str:
     return json.dumps(v, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
-
-
-class ResultsError(RuntimeError):
-    """A results file that cannot be used as asked (exists, wrong kind, mismatching run)."""
 
 
 @dataclass

@@ -2,7 +2,7 @@
 
 ``cpgjax sweep MODEL.wl --gamma 0,0.01,0.1,1 --pocket 0,4 [--crossover off,on] [--population 20]
 [--seeds 5] [--generations 150] [--baselines random,amc3,amc5,amc10] --out runs/NAME/`` runs every
-combination and seed batched into one XLA program (:mod:`cpgjax.sweep`); ``--preset full|tiny``
+combination and seed batched into one XLA program (:mod:`cpgjax.experiments.sweep`); ``--preset full|tiny``
 runs the thesis experiment of Fig. 6.5-6.12 instead.  ``cpgjax report runs/NAME/`` writes
 ``runs/NAME/report.md`` (final fitness per cell, mean ± sd over seeds, and the thesis's claims
 of Ch. 6.2-6.3 checked) and prints it.
@@ -79,7 +79,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl) or analytic:sphere:G (test/demo)")
     p.add_argument("--out", required=True, help="sweep directory (runs/NAME/)")
     p.add_argument("--preset", choices=("full", "tiny"), default=None,
-                   help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.sweep.SCALES); other grid options ignored")
+                   help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.experiments.sweep.SCALES); "
+                        "other grid options ignored")
     p.add_argument("--gamma", type=_floats, help="comma list of γ (eq. 6.1), default 0")
     p.add_argument("--pocket", type=_ints, help="comma list of pocket sizes P (0 = off), default 0")
     p.add_argument("--crossover", type=_bools, help="comma list of on/off, default off")
@@ -125,7 +126,7 @@ def register(subparsers: Any) -> None:
 
 def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
     """The runs and the problem settings the arguments ask for."""
-    from cpgjax import sweep
+    from cpgjax.experiments import sweep
 
     problem_args: dict[str, Any] = {"model": args.model, "time": args.time, "terrain": args.terrain,
                                     "delta": args.delta}
@@ -155,8 +156,8 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from cpgjax import sweep
-    from cpgjax.results import ResultsError
+    from cpgjax.experiments import sweep
+    from cpgjax.io.results import ResultsError
 
     try:
         specs, pa = build_specs(args)
@@ -165,7 +166,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 print(f"{s.path}  {s.kind}  seed {s.seed}")
             print(f"{len(specs)} runs, {sweep.total_batch(specs)} evaluations per sweep generation")
             return 0
-        problem = sweep.make_problem(pa, batch=sweep.total_batch(specs))
+        problem = sweep.sweep_problem(pa, batch=sweep.total_batch(specs))
         sweep.write_manifest(args.out, specs, pa)
         summary = sweep.run_sweep(problem, specs, chunk=args.chunk, overwrite=args.overwrite,
                                   progress=not args.quiet, group=args.group)
@@ -182,8 +183,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from cpgjax.results import ResultsError
-    from cpgjax.sweep import write_report
+    from cpgjax.analysis.report import write_report
+    from cpgjax.io.results import ResultsError
 
     try:
         out = args.out or os.path.join(args.sweep, "report.md")
@@ -197,7 +198,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_notebook(args: argparse.Namespace) -> int:
-    from cpgjax.notebook import execute
+    from cpgjax.experiments.notebook import execute
 
     env = {k: v for k, v in (("CPGJAX_SCALE", args.scale), ("CPGJAX_SWEEP_DIR", args.sweep_dir),
                              ("CPGJAX_FIG_DIR", args.fig_dir)) if v}

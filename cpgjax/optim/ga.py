@@ -41,7 +41,7 @@ cross-over on/off, mutation scale) side by side in one XLA program.
 No elitism: the thesis has none; pocketing is its way to keep the best.
 
 All randomness comes from explicit ``jax.random`` keys: the driver
-(:mod:`cpgjax.evolve`) uses ``fold_in(run_key, GEN)`` for generation GEN, so a run is
+(:mod:`cpgjax.experiments.evolve`) uses ``fold_in(run_key, GEN)`` for generation GEN, so a run is
 reproducible bit for bit from its seed and independent of how generations are chunked.
 
 Choices the thesis leaves open (documented in ``docs/evolution.md``): the mutation step
@@ -105,6 +105,12 @@ class GAConfig:
             sigma=jnp.float32(self.sigma), redraw=jnp.bool_(self.mutation == "redraw"),
             shift=jnp.bool_(self.selection == "shift"),
             lower=jnp.float32(lower), upper=jnp.float32(upper))
+
+
+class GAState(NamedTuple):
+    """The GA's state between generations: the population to evaluate next."""
+
+    population: jax.Array   # [N, G] float32
 
 
 class GAParams(NamedTuple):

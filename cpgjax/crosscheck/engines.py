@@ -13,9 +13,9 @@ import time as _time
 
 import numpy as np
 
-from cpgjax.cpg import basis
-from cpgjax.fitness import DEFAULT_DELTA
-from cpgjax.mjcf_export import MJ_TIMESTEP, initial_qpos, load
+from cpgjax.crosscheck.mjcf import MJ_TIMESTEP, initial_qpos, load
+from cpgjax.episode.cpg import basis
+from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.sim.rotation import quat_to_mat_np
 
 
@@ -46,7 +46,7 @@ def _root_slice(model, mj):
 
 def metrics_from_qpos(model, mj, qpos: np.ndarray, dt: float, delta: float = DEFAULT_DELTA) -> dict:
     """Fitness, distance, speed, tilt, fallen from qpos trajectories [N, S, nq] sampled every dt."""
-    from cpgjax.fitness import stability
+    from cpgjax.episode.fitness import stability
 
     root = qpos[..., _root_slice(model, mj)]
     pos, quat = root[..., :3], root[..., 3:]

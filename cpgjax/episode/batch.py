@@ -1,0 +1,98 @@
+"""Batching an episode across devices: padding, `shard_map` over the host devices, a jit cache.
+
+:func:`cpgjax.episode.rollout.rollout` is pure and runs one batch on one device.  This module
+is the one place that knows about devices and compilation: :func:`evaluate` (traceable) pads
+the batch, splits it across the host devices (one per CPU core, see `cpgjax._xla`) and runs
+the rollout chunk by chunk; :func:`simulate` is the host-side convenience (numpy in and out)
+with a cache of compiled programs.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from cpgjax.episode.rollout import rollout
+
+# Robots are padded to a multiple of LANES per chunk.  Why: XLA's CPU code computes
+# full SIMD vectors and a scalar (or narrower) tail differently (vectorised vs scalar
+# transcendentals, FMA contraction), so a robot's result could depend on where in the
+# batch it sat.  With every chunk a whole number of 16-float vectors (AVX-512; a
+# multiple of AVX2's 8), every robot runs the same instructions and a batch of N is
+# bitwise equal to N single runs (tests/test_episode.py).
+LANES = 16
+
+
+def _chunked(model, coeffs, chunk, **kw):
+    """Evaluate [n_chunks * chunk] robots chunk by chunk (lax.map) on one device."""
+    n = coeffs.shape[-1]
+    c = coeffs.reshape(coeffs.shape[:-1] + (n // chunk, chunk))
+    c = jnp.moveaxis(c, -2, 0)
+    out = jax.lax.map(lambda cc: rollout(model, cc, **kw), c)
+    return jax.tree.map(lambda a: jnp.moveaxis(a, 0, -2).reshape(a.shape[1:-1] + (-1,)), out)
+
+
+def evaluate(model, coeffs, *, chunk: int = 256, devices=None, **kw):
+    """Traceable batched evaluation of coeffs [N, n_ctrl, 2K+1] on all local devices.
+
+    Pads N to a multiple of ``devices * chunk`` (repeating the last controller), splits the
+    robots across host devices with `shard_map`, and runs `rollout` in chunks on each.
+    Returns the dict of `rollout` (without trajectories), each entry [N].
+    """
+    devs = jax.devices() if devices is None else devices
+    N = coeffs.shape[0]
+    if N <= LANES:  # one SIMD vector of robots: a second device would only compute padding
+        devs = devs[:1]
+    nd = len(devs)
+    per_dev = -(-N // nd)
+    ch = -(-min(chunk, per_dev) // LANES) * LANES
+    per_dev = -(-per_dev // ch) * ch
+    total = per_dev * nd
+    x = jnp.moveaxis(coeffs, 0, -1)  # batch-last
+    if total > N:
+        x = jnp.concatenate([x, jnp.repeat(x[..., -1:], total - N, -1)], -1)
+    fn = partial(_chunked, model, chunk=ch, **kw)
+    if nd > 1:
+        mesh = jax.sharding.Mesh(np.asarray(devs), ("d",))
+        P = jax.sharding.PartitionSpec
+        fn = jax.shard_map(fn, mesh=mesh, in_specs=P(None, None, "d"), out_specs=P("d"), check_vma=False)
+    out = fn(x)
+    return jax.tree.map(lambda a: a[:N], out)
+
+
+def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 256):
+    """Host-side convenience: numpy in, numpy out, one compiled program per call signature.
+
+    coeffs: [N, n_ctrl, 2K+1] (or [n_ctrl, 2K+1] for one robot).  With ``record=True``
+    the robots run in one batch on one device and the result has ``traj``.
+    """
+    c = np.asarray(coeffs, np.float32)
+    single = c.ndim == 2
+    if single:
+        c = c[None]
+    n = c.shape[0]
+    if record:
+        pad = -(-n // LANES) * LANES - n
+        c = np.concatenate([c, np.repeat(c[-1:], pad, 0)]) if pad else c
+        f = jax.jit(lambda cc: rollout(model, jnp.moveaxis(cc, 0, -1), time=time, delta=delta, record=True))
+        out = jax.tree.map(np.asarray, f(c))
+        out = {k: (v[..., :n] if k != "traj" else {kk: (vv[..., :n] if kk != "t" else vv) for kk, vv in v.items()})
+               for k, v in out.items()}
+    else:
+        out = jax.tree.map(np.asarray, _jitted_evaluate(model, time, delta, chunk)(c))
+    if single:
+        out = jax.tree.map(lambda a: a[..., 0] if a.ndim and a.shape[-1] == 1 else a, out)
+    return out
+
+
+_CACHE: dict = {}
+
+
+def _jitted_evaluate(model, time, delta, chunk):
+    key = (id(model), time, delta, chunk)
+    if key not in _CACHE:
+        _CACHE[key] = (model, jax.jit(partial(evaluate, model, time=time, delta=delta, chunk=chunk)))
+    return _CACHE[key][1]

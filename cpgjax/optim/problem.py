@@ -1,0 +1,44 @@
+"""The optimisation problem the GA and the baselines see: genomes in, fitness out.
+
+A :class:`Problem` hides the simulator: the real one is built from a `.wl` model by
+:func:`cpgjax.optim.factory.make_problem` (the thesis fitness, eq. 4.5-4.6, averaged over an
+episode).  The genome of a controller is its `.ctl` coefficients flattened row-major, per
+controlled joint ``c0 a1 b1 ... aK bK`` (Ch. 2.2.1), searched in ``[-0.8, 0.8]`` per gene
+(the hypercube of side 1.6 of Ch. 6.2.5).
+
+Cheap problems with a known optimum, for the tests, are in :mod:`cpgjax.optim.analytic`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import jax
+import numpy as np
+
+Evaluate = Callable[[jax.Array], dict[str, jax.Array]]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A fitness to maximise over genomes in the box ``[lower, upper]^n_genes``.
+
+    ``evaluate(genomes [N, G] float32)`` returns ``{"fitness": [N] float32, "diverged": [N] bool}``
+    plus optional per-individual metrics (``[N]`` arrays, e.g. ``distance``, ``speed``, ``tilt``).
+    It must be pure, deterministic and traceable inside ``jit``/``lax.scan`` (no host callbacks);
+    ``N`` may be any size.  Fitness may be NaN/inf for diverged episodes: the GA replaces such
+    values by the population's worst finite fitness and counts them (see :mod:`cpgjax.optim.ga`).
+
+    ``base_genome`` is the thesis's start (Ch. 4.3): one 0.5 Hz sinusoid per joint.
+    ``meta`` holds strings and numbers stored as HDF5 attributes of a run (model path and text,
+    simulation settings, ``n_dof`` and ``harmonics`` to turn a genome back into a `.ctl`).
+    """
+
+    name: str
+    n_genes: int
+    base_genome: np.ndarray
+    evaluate: Evaluate
+    lower: float = -0.8
+    upper: float = 0.8
+    meta: dict = field(default_factory=dict)

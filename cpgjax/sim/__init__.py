@@ -1,0 +1,16 @@
+"""The penalty-method rigid-body simulator (thesis Ch. 3, Appendix B): pure physics, nothing else.
+
+A frozen, static :class:`Model` (built from a :class:`~cpgjax.sim.description.Description`),
+a dynamic :class:`State`, and ``step(model, state, ctrl) -> state``.  Arrays are batch-last:
+the same code runs one robot or thousands.  This layer knows nothing of controllers, fitness,
+files or devices (see docs/architecture.md).
+"""
+
+from cpgjax.sim.description import Description, TerrainDef
+from cpgjax.sim.model import Model, build_model
+from cpgjax.sim.state import State, initial_state
+from cpgjax.sim.step import step
+from cpgjax.sim.terrain import Terrain, make_terrain
+
+__all__ = ["Description", "Model", "State", "Terrain", "TerrainDef", "build_model", "initial_state",
+           "make_terrain", "step"]
