@@ -18,7 +18,7 @@ from cpgjax.io import sweepdir
 from cpgjax.io.results import ResultsError, read_run
 from cpgjax.plots import thesis
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 WL = os.path.join(ROOT, "models", "quadruped.wl")
 # the quadruped, short episodes: the simulator's result for a robot does not depend on its batch
 QUAD = ["--time", "0.5", "--population", "6", "--generations", "3"]

@@ -21,7 +21,7 @@ from cpgjax.io.results import ResultsError, read_run
 from cpgjax.optim.analytic import analytic_problem
 from cpgjax.optim.ga import GAConfig
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SPEC = "analytic:diverging:10"
 CFG = GAConfig(generations=15, pocket=4, crossover=True, gamma=0.1, seed=5, chunk=4)
 

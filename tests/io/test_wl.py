@@ -433,7 +433,7 @@ def test_docs_example_parses():
     """The complete example of docs/wl-format.md §7 is a valid file."""
     from pathlib import Path
 
-    doc = (Path(__file__).resolve().parents[1] / "docs" / "wl-format.md").read_text()
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "wl-format.md").read_text()
     section = doc.split("## 7.", 1)[1]
     example = section.split("```\n", 2)[1]
     d = parse_wl(example, "one-leg.wl")
