@@ -26,21 +26,26 @@ from cpgjax.episode.rollout import rollout
 LANES = 16
 
 
-def _chunked(model, coeffs, chunk, **kw):
-    """Evaluate [n_chunks * chunk] robots chunk by chunk (lax.map) on one device."""
-    n = coeffs.shape[-1]
-    c = coeffs.reshape(coeffs.shape[:-1] + (n // chunk, chunk))
-    c = jnp.moveaxis(c, -2, 0)
-    out = jax.lax.map(lambda cc: rollout(model, cc, **kw), c)
+def _chunked(model, inputs, chunk, **kw):
+    """Evaluate [n_chunks * chunk] robots chunk by chunk (lax.map) on one device.
+
+    ``inputs = (coeffs, var)``: batch-last arrays (``var`` may be None).
+    """
+    def split(a):
+        a = a.reshape(a.shape[:-1] + (a.shape[-1] // chunk, chunk))
+        return jnp.moveaxis(a, -2, 0)
+
+    out = jax.lax.map(lambda cv: rollout(model, cv[0], var=cv[1], **kw), jax.tree.map(split, inputs))
     return jax.tree.map(lambda a: jnp.moveaxis(a, 0, -2).reshape(a.shape[1:-1] + (-1,)), out)
 
 
-def evaluate(model, coeffs, *, chunk: int = 256, devices=None, **kw):
+def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
     """Traceable batched evaluation of coeffs [N, n_ctrl, 2K+1] on all local devices.
 
     Pads N to a multiple of ``devices * chunk`` (repeating the last controller), splits the
     robots across host devices with `shard_map`, and runs `rollout` in chunks on each.
-    Returns the dict of `rollout` (without trajectories), each entry [N].
+    ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (batch-last, [..., N]),
+    padded and split with the robots.  Returns the dict of `rollout` (without trajectories), each [N].
     """
     devs = jax.devices() if devices is None else devices
     N = coeffs.shape[0]
@@ -51,14 +56,15 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, **kw):
     ch = -(-min(chunk, per_dev) // LANES) * LANES
     per_dev = -(-per_dev // ch) * ch
     total = per_dev * nd
-    x = jnp.moveaxis(coeffs, 0, -1)  # batch-last
+    x = (jnp.moveaxis(coeffs, 0, -1), var)  # batch-last
     if total > N:
-        x = jnp.concatenate([x, jnp.repeat(x[..., -1:], total - N, -1)], -1)
+        x = jax.tree.map(lambda a: jnp.concatenate([a, jnp.repeat(a[..., -1:], total - N, -1)], -1), x)
     fn = partial(_chunked, model, chunk=ch, **kw)
     if nd > 1:
         mesh = jax.sharding.Mesh(np.asarray(devs), ("d",))
         P = jax.sharding.PartitionSpec
-        fn = jax.shard_map(fn, mesh=mesh, in_specs=P(None, None, "d"), out_specs=P("d"), check_vma=False)
+        specs = jax.tree.map(lambda a: P(*([None] * (a.ndim - 1)), "d"), x)
+        fn = jax.shard_map(fn, mesh=mesh, in_specs=(specs,), out_specs=P("d"), check_vma=False)
     out = fn(x)
     return jax.tree.map(lambda a: a[:N], out)
 

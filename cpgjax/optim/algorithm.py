@@ -115,6 +115,19 @@ def _keep(active, new, old):
     return jnp.where(active.reshape(active.shape + (1,) * (new.ndim - 1)), new, old)
 
 
+EVAL_STREAM = 0x5EED   # folded into a run's update key: the stream of its evaluation keys
+
+
+def eval_keys(k_update: jax.Array, gen, n: int) -> jax.Array:
+    """The keys [n] of generation ``gen``'s ``n`` evaluations of one run (a stochastic problem's perturbations).
+
+    Derived from the run's update key (so from its seed alone), the generation and the individual's
+    index: the same in ``cpgjax evolve`` and ``cpgjax sweep``, on resume, and for any batch.
+    """
+    k = jax.random.fold_in(jax.random.fold_in(k_update, gen), EVAL_STREAM)
+    return jax.vmap(lambda i: jax.random.fold_in(k, i))(jnp.arange(n, dtype=jnp.uint32))
+
+
 def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequence[int]):
     """One generation of groups of runs: ``(params, states, kps, kus, gens, targets) -> (states, rows)``.
 
@@ -135,7 +148,12 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
         # the barrier keeps XLA from fusing (and re-rounding) the proposals into the simulation
         proposals = jax.lax.optimization_barrier(proposals)
         flat = jnp.concatenate([x.reshape(-1, G) for x in proposals], axis=0)
-        ev = problem.evaluate(flat)
+        if problem.stochastic:
+            keys = [jax.vmap(partial(eval_keys, n=a.population))(ku, gen).reshape(-1)
+                    for a, ku, gen in zip(algos, kus, gens, strict=True)]
+            ev = problem.evaluate(flat, jnp.concatenate(keys))
+        else:
+            ev = problem.evaluate(flat)
         new_states, rows, off = [], [], 0
         for a, p, s, ku, gen, tgt, x, r in zip(algos, params, states, kus, gens, targets, proposals, sizes,
                                               strict=True):

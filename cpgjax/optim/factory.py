@@ -11,39 +11,46 @@ from __future__ import annotations
 import dataclasses
 import json
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.episode.batch import evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
+from cpgjax.episode.perturb import Perturbations, draw, roughened
 from cpgjax.io.wl import load_model
 from cpgjax.optim.analytic import analytic_problem
 from cpgjax.optim.problem import Problem
 
 
 def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
-                 delta: float | None = None, replicas: int | None = None, chunk: int | None = None) -> Problem:
+                 delta: float | None = None, replicas: int | None = None, chunk: int | None = None,
+                 robust: Perturbations | None = None) -> Problem:
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
 
     ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
     is the simulator's chunk (results do not depend on it; a sweep picks one that pads its batch little).
+    ``robust``: the robust evaluation (:mod:`cpgjax.episode.perturb`) instead of the thesis's single episode.
     """
     if model.startswith("analytic:"):
         problem = analytic_problem(model)
     else:
         kw: dict = {"time": time, "terrain": terrain}
-        for k, v in (("delta", delta), ("replicas", replicas), ("chunk", chunk)):
+        for k, v in (("delta", delta), ("replicas", replicas), ("chunk", chunk), ("robust", robust)):
             if v is not None:
                 kw[k] = v
         problem = wl_problem(model, **kw)
-    cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas}
+    if robust is not None and model.startswith("analytic:"):
+        raise ValueError(f"{model}: the robust evaluation needs a simulated model (.wl)")
+    cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas,
+           "robust": robust.to_dict() if robust is not None else None}
     return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
 
 
 def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float = DEFAULT_DELTA, chunk: int = 256, dt: float | None = None,
-                 replicas: int = 1, jitter: float = 1e-3):
+                 replicas: int = 1, jitter: float = 1e-3, robust: Perturbations | None = None):
     """A GA Problem for a `.wl` model: genome = CPG coefficients of every controlled joint.
 
     ``replicas > 1`` scores each genome as the mean over that many episodes, the first
@@ -52,6 +59,10 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     generation, so the fitness stays deterministic).  The thesis used one episode
     (``replicas = 1``, the default); evolved gaits can be chaotic, and a single episode
     then rewards lucky controllers (docs/evolution.md, "A noisy fitness").
+
+    ``robust``: each genome is scored as the mean of ``robust.replicas`` episodes with fresh
+    perturbations (:mod:`cpgjax.episode.perturb`) drawn from the keys the driver passes; the
+    problem is then ``stochastic``.  ``fallen`` is the fraction of its episodes that fell.
     """
     model = load_model(wl_path, dt=dt, terrain=terrain)
     n_ctrl, n_coeff = model.n_ctrl, model.n_coeff
@@ -74,12 +85,18 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
                    for k, v in out.items()}
         return out
 
+    if robust is not None:
+        if replicas != 1:
+            raise ValueError("replicas (fixed jitter offsets) and the robust evaluation cannot be combined; "
+                             "the robust evaluation has its own replicas")
+        return _robust_problem(wl_path, model, robust, T=T, delta=delta, chunk=chunk)
+
     desc = model.description
     meta = {
         "model_path": str(wl_path), "model_text": desc.text if desc else "", "time": T,
         "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt,
         "n_dof": n_ctrl, "harmonics": model.harmonics, "frequency": model.frequency,
-        "replicas": R, "jitter": float(jitter),
+        "evaluation": "thesis", "replicas": R, "jitter": float(jitter),
     }
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
     return Problem(name=str(wl_path), n_genes=model.n_genes, base_genome=base,
@@ -89,3 +106,36 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
 def base_genome(model) -> np.ndarray:
     """The GA's starting controller: one 0.5 Hz sinusoid per joint (Ch. 4.3), amplitude 0.3 rad."""
     return sinusoid_genome(model.n_ctrl, model.harmonics, amplitude=0.3)
+
+
+METRICS = ("fitness", "diverged", "distance", "speed", "tilt", "fallen")
+
+
+def _robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, chunk: int) -> Problem:
+    """The robust evaluation of a `.wl` model (see :func:`wl_problem`)."""
+    model = model.replace(terrain=roughened(model.terrain, p.roughness))
+    n_ctrl, n_coeff, G, R = model.n_ctrl, model.n_coeff, model.n_genes, p.replicas
+    lo, hi = -0.8, 0.8
+
+    def evaluate_genomes(genomes, keys):
+        g = jnp.asarray(genomes, jnp.float32)
+        n = g.shape[0]
+        k = jax.vmap(lambda kk: jax.random.split(kk, R))(keys).reshape(n * R)
+        var, offsets = draw(model, p, k, G)
+        g = jnp.clip(jnp.repeat(g, R, axis=0) + offsets, lo, hi)
+        r = evaluate(model, g.reshape(-1, n_ctrl, n_coeff), time=T, delta=delta, chunk=chunk, var=var,
+                     fall_ends=p.fall_ends)
+        out = {}
+        for key in METRICS:
+            v = r[key].reshape(n, R)
+            out[key] = v.any(1) if key == "diverged" else v.astype(jnp.float32).mean(1)
+        return out
+
+    desc = model.description
+    meta = {"model_path": str(wl_path), "model_text": desc.text if desc else "", "time": T,
+            "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "n_dof": n_ctrl,
+            "harmonics": model.harmonics, "frequency": model.frequency, "evaluation": "robust",
+            "replicas": R, "perturbations": p.to_dict()}
+    base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
+    return Problem(name=str(wl_path), n_genes=G, base_genome=base, evaluate=evaluate_genomes, meta=meta,
+                   stochastic=True)

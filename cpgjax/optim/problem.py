@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import jax
 import numpy as np
 
-Evaluate = Callable[[jax.Array], dict[str, jax.Array]]
+Evaluate = Callable[..., dict[str, jax.Array]]
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,11 @@ class Problem:
     It must be pure, deterministic and traceable inside ``jit``/``lax.scan`` (no host callbacks);
     ``N`` may be any size.  Fitness may be NaN/inf for diverged episodes: the GA replaces such
     values by the population's worst finite fitness and counts them (see :mod:`cpgjax.optim.ga`).
+
+    ``stochastic`` problems (the robust evaluation) take a second argument, ``keys [N]``: one PRNG key
+    per genome, from which its perturbations are drawn; the drivers derive them from the run's seed,
+    the generation and the individual's index (:func:`cpgjax.optim.algorithm.eval_keys`), so a run
+    stays reproducible and resumable bit for bit.
 
     ``base_genome`` is the thesis's start (Ch. 4.3): one 0.5 Hz sinusoid per joint.
     ``meta`` holds strings and numbers stored as HDF5 attributes of a run (model path and text,
@@ -42,3 +47,4 @@ class Problem:
     lower: float = -0.8
     upper: float = 0.8
     meta: dict = field(default_factory=dict)
+    stochastic: bool = False

@@ -11,16 +11,24 @@ from __future__ import annotations
 from cpgjax.sim.rotation import cross, matTvec, matvec, quat_integrate
 
 
-def accelerations(model, R, w, force, torque):
-    """Linear and angular accelerations [3, nb, B] of the free bodies (fixed bodies: zero)."""
+def accelerations(model, R, w, force, torque, mass_scale=None):
+    """Linear and angular accelerations [3, nb, B] of the free bodies (fixed bodies: zero).
+
+    ``mass_scale`` [nb, B] (a :class:`~cpgjax.sim.variation.Variation`) scales each body's mass and
+    inertia per robot; ``None`` is the nominal robot.
+    """
     free = (~model.fixed).astype(float)[:, None]
-    a = force / model.mass[:, None]
+    m = model.mass[:, None] if mass_scale is None else model.mass[:, None] * mass_scale
+    a = force / m
     a = a.at[2].add(-model.gravity)
     wb = matTvec(R, w)
     tb = matTvec(R, torque)
     I = model.inertia[:, :, :, None]
     Iinv = model.inv_inertia[:, :, :, None]
-    alpha_b = matvec(Iinv, tb - cross(wb, matvec(I, wb)))
+    if mass_scale is None:
+        alpha_b = matvec(Iinv, tb - cross(wb, matvec(I, wb)))
+    else:   # I' = s I: alpha = I^-1 (tau / s - w x I w)
+        alpha_b = matvec(Iinv, tb / mass_scale - cross(wb, matvec(I, wb)))
     return a * free, matvec(R, alpha_b) * free
 
 

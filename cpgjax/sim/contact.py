@@ -25,15 +25,20 @@ FRICTION_K = 1.0e5  # N/m    tangential (stiction) spring, as stiff as the groun
 FRICTION_B = 1.0e3  # N s/m  its damper, as the ground's (B)
 
 
-def contact_forces(model, p, pv, anchor):
-    """Force [3, nc, B] at each contact vertex, its depth [nc, B] and the new anchors [3, nc, B]."""
+def contact_forces(model, p, pv, anchor, var=None):
+    """Force [3, nc, B] at each contact vertex, its depth [nc, B] and the new anchors [3, nc, B].
+
+    ``var`` (a :class:`~cpgjax.sim.variation.Variation`) scales the friction coefficients and shifts the
+    terrain lookup per robot; ``None`` is the nominal robot.
+    """
     cp, cv = p[:, model.ct_pt], pv[:, model.ct_pt]
     if model.terrain.flat:  # fast path: z_g = 0, n = (0, 0, 1), no lookup
         zero = jnp.zeros_like(cp[2])
         n = jnp.stack([zero, zero, zero + 1.0])
         depth = -cp[2]
     else:
-        zg, n = height_and_normal(model.terrain, cp[0], cp[1])
+        sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
+        zg, n = height_and_normal(model.terrain, cp[0] + sx, cp[1] + sy)
         n = jnp.stack(n)
         depth = (zg - cp[2]) * n[2]
     vn = dot(cv, n)
@@ -49,8 +54,11 @@ def contact_forces(model, p, pv, anchor):
     bt_eff = FRICTION_B / (1.0 + dt * FRICTION_B * inv_m)
     f_spring = -FRICTION_K * d - bt_eff * vt
     mag = jnp.sqrt(dot(f_spring, f_spring) + 1e-12)
-    slide = mag > model.mu_static * fn
-    f_slide = model.mu_dynamic * fn
+    mu_s, mu_d = model.mu_static, model.mu_dynamic
+    if var is not None:
+        mu_s, mu_d = mu_s * var.friction, mu_d * var.friction
+    slide = mag > mu_s * fn
+    f_slide = mu_d * fn
     ft = jnp.where(slide, f_spring * (f_slide / mag), f_spring)
     # sliding: the anchor trails the vertex so that the spring alone holds mu_d f_r
     d_mag = jnp.sqrt(dot(d, d) + 1e-18)

@@ -44,25 +44,29 @@ def sum_onto_bodies(model, f_pt, torque_joint):
     return jnp.stack(out, 1)
 
 
-def forces(model, state, ctrl):
+def forces(model, state, ctrl, var=None):
     """Total force and torque on every body [3, nb, B], plus diagnostics."""
     target, target_rate = ctrl
     R = quat_to_mat(state.q)
     r, p, pv = point_kinematics(model, state, R)
     fs = pivot_spring_forces(model, p, pv)
-    fc, depth, anchor = contact_forces(model, p, pv, state.anchor)
+    fc, depth, anchor = contact_forces(model, p, pv, state.anchor, var)
     f_pt = jnp.concatenate([fs, -fs, fc], 1)[:, model.pt_src]
     angle, rate, axis = joint_angles(model, R, state.w)
-    tau_servo, err = servo_torques(model, angle, rate, target, target_rate, state.e_int)
+    tau_servo, err = servo_torques(model, angle, rate, target, target_rate, state.e_int,
+                                   None if var is None else var.gain)
     tau = tau_servo + limit_torques(model, angle, rate)
     force = sum_onto_bodies(model, f_pt, None)
     torque = sum_onto_bodies(model, cross(r, f_pt), tau * axis)
     return R, force, torque, err, anchor
 
 
-def step(model, state, ctrl):
-    """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``."""
-    R, force, torque, err, anchor = forces(model, state, ctrl)
-    a, alpha = accelerations(model, R, state.w, force, torque)
+def step(model, state, ctrl, var=None):
+    """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``.
+
+    ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (``None``: the nominal robot).
+    """
+    R, force, torque, err, anchor = forces(model, state, ctrl, var)
+    a, alpha = accelerations(model, R, state.w, force, torque, None if var is None else var.mass)
     new = integrate(state, a, alpha, model.dt)
-    return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, t=state.t + model.dt)
+    return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, n=state.n + 1)

@@ -1,4 +1,4 @@
-"""Episodes (cpgjax/sim/episode.py) on the quadruped: standing, walking, batching, divergence."""
+"""Episodes (cpgjax/episode/rollout.py, batch.py) on the quadruped: standing, walking, batching, divergence, clock."""
 
 import numpy as np
 import pytest
@@ -76,3 +76,21 @@ def test_absurd_gains_are_flagged_too(quad):
     r = simulate(wild, np.full((8, 5), 0.5), time=1.0)
     assert j and r["diverged"]
     assert np.isfinite(r["fitness"])
+
+
+def test_the_clock_is_a_step_count_and_the_record_starts_at_t0():
+    """Simulated time is n * dt (one rounding), not a running float sum of dt; the first sample is t = 0."""
+    from simcases import box
+
+    m = box(z=0.5, log_rate=20, contact=False)           # dt 5e-4: 12000 steps in 6 s
+    r = simulate(m, np.zeros((m.n_ctrl, m.n_coeff)), time=6.0, record=True)
+    t = r["traj"]["t"]
+    assert t.dtype == np.float32 and len(t) == 6 * 20 + 1
+    k = np.arange(len(t))
+    ulp = np.spacing(np.float32(6.0))
+    assert t[0] == 0.0 and np.all(np.abs(t - k / 20.0) <= ulp)   # a float32 sum of dt was 6.000610 here
+    # the first sample is the initial pose, at rest
+    assert np.allclose(r["traj"]["x"][0, :, 0], m.x0[:, 0]) and np.all(r["traj"]["v"][0] == 0)
+    # free fall from the very first step: z(t) = z0 - g t^2 / 2 at the recorded times
+    z = r["traj"]["x"][:, 2, 0]
+    assert np.max(np.abs(z - (0.5 - 0.5 * 9.81 * t.astype(float) ** 2))) < 9.81 * 6.0 * m.dt

@@ -29,10 +29,10 @@ def test_amc_width_contracts_from_the_whole_cube():
 
 
 def test_amc_samples_stay_in_the_box_and_the_cube():
-    state = {"center": jnp.asarray([[0.75, 0.0, -0.8], [0.0, 0.1, 0.2]], jnp.float32),
-             "best": jnp.zeros(2)}
+    state = baselines.AMCState(center=jnp.asarray([[0.75, 0.0, -0.8], [0.0, 0.1, 0.2]], jnp.float32),
+                               best=jnp.zeros(2), width=jnp.float32(0.1))
     x = np.asarray(baselines.amc_propose(state, KEY, 0.1, 500, -0.8, 0.8)).reshape(2, 500, 3)
-    c = np.asarray(state["center"])
+    c = np.asarray(state.center)
     assert np.all(np.abs(x - c[:, None, :]) <= 0.1 + 1e-6)
     assert x.min() >= -0.8 and x.max() <= 0.8
     # uniform inside box ∩ cube: gene 0 of variable 0 lives in [0.65, 0.8]
@@ -45,12 +45,12 @@ def test_amc_update_keeps_the_best_and_ignores_diverged():
     f = jnp.asarray([0.1, 0.3, jnp.nan, 0.2])
     div = jnp.asarray([False, False, False, True])
     new = baselines.amc_update(state, g, f, div)
-    np.testing.assert_allclose(np.asarray(new["best"]), [0.3, -np.inf])
-    np.testing.assert_allclose(np.asarray(new["center"][0]), np.asarray(g[1]))
-    np.testing.assert_allclose(np.asarray(new["center"][1]), 0.0)
+    np.testing.assert_allclose(np.asarray(new.best), [0.3, -np.inf])
+    np.testing.assert_allclose(np.asarray(new.center[0]), np.asarray(g[1]))
+    np.testing.assert_allclose(np.asarray(new.center[1]), 0.0)
     worse = baselines.amc_update(new, g, jnp.asarray([0.0, 0.05, 0.5, 0.4]), jnp.zeros(4, bool))
-    np.testing.assert_allclose(np.asarray(worse["best"]), [0.3, 0.5])
-    np.testing.assert_allclose(np.asarray(worse["center"][0]), np.asarray(g[1]))
+    np.testing.assert_allclose(np.asarray(worse.best), [0.3, 0.5])
+    np.testing.assert_allclose(np.asarray(worse.center[0]), np.asarray(g[1]))
 
 
 def test_config():

@@ -1,0 +1,93 @@
+"""The robust evaluation's perturbations: what a controller must survive to score (docs/evolution.md).
+
+The thesis scored a controller by one exact episode (eq. 4.6).  The penalty simulator, like any
+simulator of a statically unstable walker, is sensitive to small differences, so one exact
+episode rewards controllers that are *lucky*: they score in that episode and fall in any other
+(and on the "robot", MuJoCo).  The robust evaluation scores each controller as the mean over R
+episodes, each with fresh perturbations drawn per robot from its own key:
+
+* the initial pose: the whole robot lifted by ``U(-lift, lift)`` and rolled and pitched by
+  ``U(-tilt, tilt)``;
+* the terrain: a heightfield of uniform roughness in ``[0, roughness]`` (0.1 m cells) added to the
+  model's terrain, the robot placed at a random spot of it;
+* the robot as built: friction coefficients, each body's mass and inertia, and each servo's gains
+  scaled by ``1 + U(-x, x)`` (``friction``, ``mass``, ``gain``);
+* the controller: every gene moved by ``N(0, jitter^2)`` (clipped to the search box).
+
+Each robot's draws depend only on its key, so a result does not depend on the batch it is in.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from cpgjax.sim.terrain import Terrain, make_terrain
+from cpgjax.sim.variation import Variation
+
+ROUGH_CELL = 0.1        # m: cell of the roughness heightfield
+ROUGH_SEED = 20000      # the roughness field is fixed; each robot stands at a random spot of it
+SHIFT = (1.5, 2.0)      # m: half-ranges of the random spot in x and y
+
+
+@dataclass(frozen=True)
+class Perturbations:
+    """Ranges of the robust evaluation (uniform, symmetric about the nominal unless said otherwise)."""
+
+    replicas: int = 4          # episodes per controller and generation (they ride in the same batch)
+    lift: float = 0.005        # m: initial height offset
+    tilt: float = 0.02         # rad: initial roll and pitch
+    roughness: float = 0.003   # m: terrain roughness range (0: the model's terrain as it is)
+    friction: float = 0.1      # relative: friction coefficients
+    mass: float = 0.05         # relative: each body's mass and inertia
+    gain: float = 0.1          # relative: each servo's kp, ki, kd
+    jitter: float = 1e-3       # rad: sd of the gene jitter
+    fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
+
+    def __post_init__(self) -> None:
+        if self.replicas < 1:
+            raise ValueError(f"replicas must be >= 1, got {self.replicas}")
+        for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter"):
+            v = getattr(self, f)
+            if not (np.isfinite(v) and v >= 0):
+                raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
+        for f in ("friction", "mass", "gain"):
+            if getattr(self, f) >= 1:
+                raise ValueError(f"perturbation {f} is relative and must be < 1, got {getattr(self, f)}")
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def roughened(terrain: Terrain, roughness: float) -> Terrain:
+    """``terrain`` plus a fixed field of uniform roughness in [0, roughness] (0.1 m cells)."""
+    if roughness <= 0:
+        return terrain
+    rough = make_terrain(f"rough:{roughness:g}:{ROUGH_CELL:g}:{ROUGH_SEED}")
+    if terrain.flat:
+        return rough
+    ny, nx = rough.heights.shape
+    X, Y = np.meshgrid(rough.x0 + rough.dx * np.arange(nx), rough.y0 + rough.dy * np.arange(ny))
+    return Terrain(f"{terrain.spec}+{rough.spec}", terrain.height_np(X, Y) + rough.heights,
+                   rough.x0, rough.y0, rough.dx, rough.dy)
+
+
+def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
+    """One robot's draws: its Variation fields (robot axis last, length 1 squeezed) and gene offsets."""
+    ks = jax.random.split(key, 8)
+    u = lambda k, shape, r: r * jax.random.uniform(k, shape, jnp.float32, -1.0, 1.0)  # noqa: E731
+    shift = jnp.stack([u(ks[0], (), SHIFT[0]), u(ks[1], (), SHIFT[1])]) if p.roughness > 0 else jnp.zeros(2)
+    return (Variation(friction=1.0 + u(ks[2], (), p.friction), mass=1.0 + u(ks[3], (model.nb,), p.mass),
+                      gain=1.0 + u(ks[4], (model.n_ctrl,), p.gain), shift=shift,
+                      lift=u(ks[5], (), p.lift), tilt=u(ks[6], (2,), p.tilt)),
+            p.jitter * jax.random.normal(ks[7], (n_genes,), jnp.float32))
+
+
+def draw(model, p: Perturbations, keys: jax.Array, n_genes: int) -> tuple[Variation, jax.Array]:
+    """Per-robot perturbations from keys [N]: a batch-last :class:`Variation` [..., N] and gene offsets [N, G]."""
+    var, offsets = jax.vmap(lambda k: _one(model, p, k, n_genes))(keys)
+    return jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), var), offsets

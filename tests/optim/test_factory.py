@@ -1,0 +1,81 @@
+"""The problem factory (cpgjax/optim/factory.py): the thesis's single episode and the robust evaluation."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from cpgjax.episode.batch import evaluate
+from cpgjax.episode.perturb import Perturbations, draw
+from cpgjax.io.ctl import read_ctl
+from cpgjax.optim.algorithm import eval_keys
+from cpgjax.optim.factory import make_problem
+
+WL = "models/quadruped.wl"
+P = Perturbations(replicas=3)
+
+
+@pytest.fixture(scope="module")
+def robust():
+    p = make_problem(WL, time=0.3, robust=P)
+    return p, jax.jit(p.evaluate)
+
+
+@pytest.fixture(scope="module")
+def trot():
+    return np.asarray(read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs, np.float32).reshape(-1)
+
+
+def test_eval_keys_depend_on_the_run_the_generation_and_the_individual():
+    k = jax.random.key(3)
+    a, b = eval_keys(k, 0, 4), eval_keys(k, 1, 4)
+    data = lambda keys: np.asarray(jax.random.key_data(keys)).reshape(len(keys), -1)  # noqa: E731
+    assert len({tuple(r) for r in data(a)} | {tuple(r) for r in data(b)}) == 8      # all distinct
+    np.testing.assert_array_equal(data(a), data(eval_keys(k, 0, 4)))                 # reproducible
+    np.testing.assert_array_equal(data(a)[:2], data(eval_keys(k, 0, 2)))             # independent of N
+
+
+def test_the_thesis_problem_is_deterministic_and_the_robust_one_is_stochastic(robust):
+    thesis = make_problem(WL, time=0.3)
+    assert not thesis.stochastic and thesis.meta["evaluation"] == "thesis"
+    p, _ = robust
+    assert p.stochastic and p.meta["evaluation"] == "robust" and p.meta["perturbations"]["replicas"] == 3
+    assert "rough" in p.meta["terrain"]
+
+
+def test_robust_fitness_is_fresh_per_key_reproducible_and_batch_independent(robust, trot):
+    _, f = robust
+    G = jnp.asarray(np.repeat(trot[None], 4, 0))
+    k0, k1 = eval_keys(jax.random.key(0), 0, 4), eval_keys(jax.random.key(0), 1, 4)
+    r0 = np.asarray(f(G, k0)["fitness"])
+    assert len(set(r0.tolist())) == 4                     # the same genome, 4 keys: 4 different episodes
+    np.testing.assert_array_equal(r0, np.asarray(f(G, k0)["fitness"]))
+    assert not np.any(np.asarray(f(G, k1)["fitness"]) == r0)       # the next generation: fresh draws
+    np.testing.assert_array_equal(r0[:2], np.asarray(f(G[:2], k0[:2])["fitness"]))
+
+
+def test_robust_fitness_is_the_mean_of_its_replicas(robust, trot):
+    """The replicas ride in the batch: the score is the mean of R single episodes with the drawn perturbations."""
+    p, f = robust
+    key = eval_keys(jax.random.key(1), 0, 1)
+    got = float(f(jnp.asarray(trot[None]), key)["fitness"][0])
+    from cpgjax.episode.perturb import roughened
+    from cpgjax.io.wl import load_model
+
+    m = load_model(WL)
+    m = m.replace(terrain=roughened(m.terrain, P.roughness))
+    ks = jax.random.split(key[0], P.replicas)
+    var, off = draw(m, P, ks, m.n_genes)
+    g = jnp.clip(jnp.asarray(trot)[None] + off, -0.8, 0.8).reshape(-1, m.n_ctrl, m.n_coeff)
+    each = np.asarray(jax.jit(lambda g, v: evaluate(m, g, time=0.3, var=v, fall_ends=True))(g, var)["fitness"])
+    assert len(set(each.tolist())) == P.replicas
+    assert np.isclose(got, each.mean(), rtol=1e-3)     # another compiled program: last-bit rounding differs
+
+
+def test_perturbation_ranges_are_checked():
+    with pytest.raises(ValueError, match="friction"):
+        Perturbations(friction=1.5)
+    with pytest.raises(ValueError, match="replicas"):
+        Perturbations(replicas=0)
+    with pytest.raises(ValueError, match="needs a simulated model"):
+        make_problem("analytic:sphere:10", robust=P)

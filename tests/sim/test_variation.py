@@ -1,0 +1,82 @@
+"""Per-robot variation (cpgjax/sim/variation.py): the nominal one changes nothing; each scale acts as physics says."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from simcases import box, model_from
+
+from cpgjax.episode.batch import evaluate
+from cpgjax.episode.rollout import rollout
+from cpgjax.io.wl import load_model
+from cpgjax.sim.rotation import quat_to_mat
+from cpgjax.sim.state import initial_state, varied_initial_state
+from cpgjax.sim.variation import Variation
+
+
+def _run(m, var, time, record=False):
+    B = var.friction.shape[-1]
+    coeffs = jnp.zeros((m.n_ctrl, m.n_coeff, B))
+    return jax.tree.map(np.asarray, jax.jit(lambda v: rollout(m, coeffs, time=time, var=v, record=record))(var))
+
+
+def test_the_nominal_variation_is_bitwise_the_nominal_robot():
+    m = load_model("models/quadruped.wl")
+    rng = np.random.default_rng(0)
+    C = jnp.asarray(rng.uniform(-0.5, 0.5, (3, m.n_ctrl, m.n_coeff)), jnp.float32)
+    plain = jax.jit(lambda c: evaluate(m, c, time=0.5))(C)
+    nominal = jax.jit(lambda c, v: evaluate(m, c, time=0.5, var=v))(C, Variation.nominal(m, 3))
+    for k in plain:
+        np.testing.assert_array_equal(np.asarray(plain[k]), np.asarray(nominal[k]), err_msg=k)
+
+
+def test_resting_penetration_follows_the_scaled_mass():
+    """m g / (A contacts) with m scaled per robot: a box 0.8x and 1.5x as heavy sinks 0.8x and 1.5x as deep."""
+    m = box(z=0.05, mass=10.0)
+    scale = np.array([0.8, 1.0, 1.5], np.float32)
+    var = Variation.nominal(m, 3)._replace(mass=jnp.asarray(scale[None]))
+    r = _run(m, var, 2.0, record=True)
+    depth = 0.05 - r["traj"]["x"][-1, 2, 0]
+    expected = scale * 10.0 * 9.81 / (1e5 * 4)
+    np.testing.assert_allclose(depth, expected, rtol=0.02)
+
+
+def test_friction_scale_moves_the_friction_angle():
+    """A block on a 0.3 rad slope (tan 0.31) with mu 0.4 sticks; scaled to 0.6 x 0.4 = 0.24 it slides."""
+    slope = 0.3
+    m = model_from(f"""
+TimeMax 2
+LogRate 50
+Friction 0.4
+Terrain ramp {slope}
+Object Box {{
+    Type Cube
+    Mass 2
+    Dimensions .1 .1 .1
+    Position 0 1.0 {-np.tan(slope) * 1.0 + 0.05 / np.cos(slope) + 0.001}
+    Orientation {-slope} 0 0
+}}
+""")
+    var = Variation.nominal(m, 2)._replace(friction=jnp.asarray([1.0, 0.6]))
+    y = _run(m, var, 1.5, record=True)["traj"]["x"][:, 1, 0]
+    moved = np.abs(y[-1] - y[10])
+    assert moved[0] < 2e-3 and moved[1] > 0.05, moved
+
+
+def test_initial_tilt_and_lift_turn_the_whole_robot_rigidly():
+    m = load_model("models/quadruped.wl")
+    var = Variation.nominal(m, 2)._replace(tilt=jnp.asarray([[0.05, 0.0], [0.0, -0.03]]),
+                                            lift=jnp.asarray([0.0, 0.004]))
+    s0, s1 = initial_state(m, 2), varied_initial_state(m, var)
+    R0, R1 = np.asarray(quat_to_mat(s0.q)), np.asarray(quat_to_mat(s1.q))
+    # every body turned by the same rotation: relative orientations (joint angles) unchanged
+    for b in range(2):
+        rel0 = np.einsum("jik,jlk->ilk", R0[:, :, :, b], R0[:, :, m.track:m.track + 1, b].repeat(m.nb, 2))
+        rel1 = np.einsum("jik,jlk->ilk", R1[:, :, :, b], R1[:, :, m.track:m.track + 1, b].repeat(m.nb, 2))
+        np.testing.assert_allclose(rel0, rel1, atol=1e-6)
+    # robot 0 rolled by 0.05 rad about x: the tracked body's z axis tilts by that angle
+    assert np.isclose(np.arccos(R1[2, 2, m.track, 0]), 0.05, atol=1e-5)
+    assert np.isclose(np.arccos(R1[2, 2, m.track, 1]), 0.03, atol=1e-5)
+    # the tracked body's CM is lifted, not moved sideways
+    dx = np.asarray(s1.x[:, m.track] - s0.x[:, m.track])
+    np.testing.assert_allclose(dx[:, 0], 0.0, atol=1e-7)
+    np.testing.assert_allclose(dx[:, 1], [0.0, 0.0, 0.004], atol=1e-7)
