@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from cpgjax.io.textfile import read_text
 from cpgjax.sim.description import DescriptionError
 
 __all__ = ["Control", "parse_ctl", "read_ctl", "format_ctl", "write_ctl", "genome_to_coeffs",
@@ -88,7 +89,7 @@ def parse_ctl(text: str, path: str = "<string>", n_dof: int | None = None,
     """
     rows: list[tuple[int, list[float]]] = []
     last_line = 1
-    for n, raw in enumerate(text.splitlines(), start=1):
+    for n, raw in enumerate(text.removeprefix("\ufeff").splitlines(), start=1):
         toks = raw.split("#", 1)[0].split()
         if not toks:
             continue
@@ -123,10 +124,13 @@ def parse_ctl(text: str, path: str = "<string>", n_dof: int | None = None,
 
 
 def read_ctl(path: str | os.PathLike[str], n_dof: int | None = None, harmonics: int | None = None) -> Control:
-    """Read a `.ctl` file (see :func:`parse_ctl`)."""
-    p = os.fspath(path)
-    with open(p, encoding="utf-8") as f:
-        return parse_ctl(f.read(), p, n_dof=n_dof, harmonics=harmonics)
+    """Read a `.ctl` file (see :func:`parse_ctl`).
+
+    A file that cannot be read as text (missing, a directory, binary) is a DescriptionError
+    too (:func:`cpgjax.io.textfile.read_text`).
+    """
+    p, text = read_text(path, ".ctl")
+    return parse_ctl(text, p, n_dof=n_dof, harmonics=harmonics)
 
 
 def _f6(v: float) -> str:
@@ -139,11 +143,13 @@ def _exact(v: float) -> str:
 
 
 def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False) -> str:
-    """The `.ctl` text: ``%.6f`` numbers separated by two spaces, one DOF per line (thesis example).
+    """The `.ctl` text: numbers separated by two spaces, one DOF per line (thesis example).
 
-    ``exact=True`` writes each number with as many digits as it takes to read back the same
-    float32: evolved gaits can be chaotic, and a controller rounded to 6 decimals may walk
-    differently from the one the GA scored (docs/evolution.md).
+    The fitness is written ``%.6f``; the coefficients too by default (the thesis's 6 decimals).
+    ``exact=True`` (what ``cpgjax best --ctl`` writes unless ``--round``) writes each
+    coefficient with as many digits as it takes to read back the same float32: evolved gaits
+    can be chaotic, and a controller rounded to 6 decimals may walk differently from the one
+    the GA scored (docs/evolution.md).
     """
     c = np.asarray(coeffs, dtype=np.float64)
     if c.ndim != 2 or c.shape[1] % 2 == 0:
@@ -156,7 +162,7 @@ def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False) -> str:
 
 
 def write_ctl(path: str | os.PathLike[str], coeffs: Any, fitness: float = 0.0, exact: bool = False) -> None:
-    """Write a `.ctl` file (see :func:`format_ctl`); 6 decimals as in the thesis, or ``exact``."""
+    """Write a `.ctl` file (see :func:`format_ctl`); 6 decimals as in the thesis, or ``exact`` float32 digits."""
     text = format_ctl(coeffs, fitness, exact=exact)
     with open(os.fspath(path), "w", encoding="utf-8") as f:
         f.write(text)

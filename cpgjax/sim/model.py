@@ -171,6 +171,28 @@ def object_contacts(obj: ObjectDef) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- builder
 
+def _body_line(desc: Description, name: str) -> int:
+    rec = desc.compounds.get(name) or desc.objects.get(name)
+    return rec.line if rec is not None else 1
+
+
+def _check_body(path: str, desc: Description, kind: str, name: str, mass: float, inertia: np.ndarray,
+                pts: list[np.ndarray]) -> None:
+    """A body's mass and inertia must be finite and positive definite (the parser's ranges ensure it
+    for a `.wl` file; this guards Descriptions made in code and combinations of extremes)."""
+    what = f"{'Compound' if kind == 'compound' else 'Object'} '{name}'"
+    line = _body_line(desc, name)
+    if not (np.isfinite(mass) and mass > 0 and np.all(np.isfinite(inertia))
+            and all(np.all(np.isfinite(p)) for p in pts)):
+        raise DescriptionError(path, line, f"{what}: its mass, inertia or contact vertices are not finite "
+                                           f"(mass {mass:g} kg); check its Mass, Dimensions, Position and Contact")
+    moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
+    if not moments.min() > 1e-12 * moments.max() or not moments.min() > 0:
+        raise DescriptionError(path, line, f"{what} has a degenerate inertia (principal moments "
+                                           f"{', '.join(f'{v:.3g}' for v in moments)} kg m^2); check its Mass "
+                                           "and Dimensions")
+
+
 def build_model(desc: Description, *, dt: float | None = None, terrain: str | None = None) -> Model:
     """Turn a Description into a Model.  ``terrain`` (CLI syntax) overrides the file's."""
     path = desc.path
@@ -203,6 +225,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
             d = p - cm
             inertia += R @ object_inertia(o) @ R.T + o.mass * (d @ d * np.eye(3) - np.outer(d, d))
             pts.append(object_contacts(o) @ R.T + p)
+        _check_body(path, desc, kind, name, m_tot, inertia, pts)
         names.append(name)
         masses.append(m_tot)
         inertias.append(inertia)
@@ -211,6 +234,9 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         contacts_local.append(np.concatenate(pts) - cm if pts else np.zeros((0, 3)))
         frame_pose[name] = pose
     nb = len(names)
+    if nb == 0:
+        raise DescriptionError(path, 1, "the description defines no Object, so there is nothing to simulate; "
+                                        "add at least one Object block (docs/wl-format.md §4)")
     index = {n: i for i, n in enumerate(names)}
 
     # -- joints: place child bodies from their parents (a forest, checked by the parser)
@@ -305,6 +331,12 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     sp_a, sp_b, ct_pt = new_of_old[sp_a], new_of_old[sp_b], new_of_old[ct_pt]
     pt_start = np.concatenate([[0], np.cumsum(np.bincount(pt_body, minlength=nb))]).astype(np.int32)
 
+    bad = ~np.isfinite(inv_m_pt) | ~np.all(np.isfinite(pt_local), axis=0)
+    if bad.any():
+        name = names[int(pt_body[np.argmax(bad)])]
+        raise DescriptionError(path, _body_line(desc, name), f"body '{name}': a joint pivot or contact vertex is "
+                                                             "too far from its centre of mass for its inertia "
+                                                             "(the effective mass overflows); check its lengths")
     nctrl = desc.n_controlled
     ctrl_joint = np.zeros(nctrl, dtype=np.int32)
     for k, c in enumerate(j_ctrl):

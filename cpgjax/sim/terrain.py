@@ -1,21 +1,28 @@
 """Terrain: a matrix of heights scaled over the workspace, bilinearly interpolated (Appendix A).
 
-Kinds (CLI syntax ``--terrain``, `.wl` syntax ``Terrain``):
+Kinds (CLI syntax ``--terrain``, `.wl` syntax ``Terrain``; docs/wl-format.md §3.1):
 
 - ``flat``: z = 0 (a fast path: no lookup at all);
-- ``ramp:SLOPE[:AXIS]``: a plane descending along +AXIS (default y) with slope SLOPE rad,
-  starting at the origin (flat before it);
-- ``bump:HEIGHT[@Y][:WIDTH]``: a bump of HEIGHT m across the path, from y = Y (default 1.0 m)
-  to Y + WIDTH (default 0.3 m), flat elsewhere (thesis Ch. 6.4, Fig. 6.13);
-- ``rough:RANGE[:CELL[:SEED]]``: heights uniform in [0, RANGE] m on a grid of CELL m
-  (default 0.1 m), seeded (default 0) (thesis Ch. 6.4, Fig. 6.14);
+- ``ramp:SLOPE[:AXIS]``: a plane descending along +AXIS (X or Y, default Y) with slope
+  SLOPE rad (|SLOPE| < pi/2), starting at the origin (flat before it);
+- ``bump:HEIGHT[@Y][:WIDTH]``: a bump of HEIGHT m across the path, from y = Y (default 1.0 m,
+  |Y| <= 1000) to Y + WIDTH (default 0.3 m, 0.01 <= WIDTH <= 100), flat elsewhere
+  (thesis Ch. 6.4, Fig. 6.13);
+- ``rough:RANGE[:CELL[:SEED]]``: heights uniform in [0, RANGE] m (RANGE >= 0) on a grid of
+  CELL m (default 0.1 m, 0.005 <= CELL <= 3), seeded (an integer >= 0, default 0)
+  (thesis Ch. 6.4, Fig. 6.14);
 - ``matrix``: an explicit height matrix from a `.wl` file.
 
 Outside the matrix the height of the nearest edge is used.
+
+:func:`check_terrain` is the one validation of the values, shared by the command line
+(:func:`parse_terrain`, which reads the text above) and the `.wl` parser; both raise
+``ValueError`` messages that say what is wrong and what is allowed.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import jax.numpy as jnp
@@ -57,62 +64,183 @@ def _grid(extent_x, extent_y, cell):
     return xs, ys
 
 
+#: The command-line syntax of a terrain (``--terrain``); the `.wl` ``Terrain`` statement has the
+#: same kinds and parameters, written as separate numbers (docs/wl-format.md §3.1).
+TERRAIN_SYNTAX = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
+TERRAIN_KINDS = ("flat", "ramp", "bump", "rough", "matrix")
+_EXAMPLES = {"flat": "flat", "ramp": "ramp:0.1", "bump": "bump:0.02@1.0:0.3", "rough": "rough:0.02:0.1:7"}
+BUMP_CELL = 0.01  # m: the grid of a bump along y
+BUMP_WIDTH = (BUMP_CELL, 100.0)  # m: a bump narrower than its grid cell could fall between two rows
+BUMP_MAX_Y = 1000.0  # m: |Y|; beyond, y + WIDTH rounds to y in float64
+ROUGH_CELL = (0.005, 3.0)  # m: finer does not fit in memory, coarser leaves < 3 grid points across x
+
+
+def _g(v: float) -> str:
+    return str(int(v)) if v.is_integer() and abs(v) < 1e15 else f"{v:g}"
+
+
+def check_terrain(kind: str, params=(), axis: str = "Y", heights=None, line: int = 0) -> TerrainDef:
+    """The one validation of a terrain's values, shared by ``--terrain`` and the `.wl` ``Terrain``.
+
+    Returns the :class:`TerrainDef`; raises ``ValueError`` with a message that says what is
+    wrong and the allowed range (the `.wl` parser prefixes ``path:line:``, :func:`parse_terrain`
+    the spec).  Counts of parameters are checked too (for a TerrainDef built in code).
+    """
+    kind = str(kind).lower()
+    p = tuple(float(v) for v in params)
+    axis = str(axis).upper()
+    if kind not in TERRAIN_KINDS:
+        raise ValueError(f"unknown terrain kind {kind!r}; expected one of {', '.join(TERRAIN_KINDS)}")
+    counts = {"flat": (0, 0), "ramp": (1, 1), "bump": (1, 3), "rough": (1, 3), "matrix": (6, 6)}[kind]
+    if not counts[0] <= len(p) <= counts[1]:
+        raise ValueError(f"{kind} terrain takes {counts[0]} to {counts[1]} parameters, got {len(p)}")
+    if not all(math.isfinite(v) for v in p):
+        raise ValueError(f"{kind} terrain parameters must be finite numbers, got {' '.join(map(_g, p))}")
+    if kind == "ramp":
+        if axis not in ("X", "Y"):
+            raise ValueError(f"ramp axis must be X or Y, got {axis!r}")
+        if abs(p[0]) >= math.pi / 2:
+            raise ValueError(f"ramp slope is an angle in radians, |SLOPE| < pi/2, got {p[0]:g}")
+    elif kind == "bump":
+        if len(p) > 1 and abs(p[1]) > BUMP_MAX_Y:
+            raise ValueError(f"bump Y must be within +-{BUMP_MAX_Y:g} m, got {p[1]:g}")
+        if len(p) > 2:
+            if p[2] <= 0:
+                raise ValueError(f"bump WIDTH must be positive (metres along y), got {p[2]:g}")
+            if not BUMP_WIDTH[0] <= p[2] <= BUMP_WIDTH[1]:
+                raise ValueError(f"bump WIDTH must be between {BUMP_WIDTH[0]:g} m (the bump's grid cell) and "
+                                 f"{BUMP_WIDTH[1]:g} m, got {p[2]:g}")
+    elif kind == "rough":
+        if p[0] < 0:
+            raise ValueError(f"rough RANGE must be >= 0 (metres), got {p[0]:g}")
+        if len(p) > 1:
+            if p[1] <= 0:
+                raise ValueError(f"rough CELL must be positive (metres), got {p[1]:g}")
+            if not ROUGH_CELL[0] <= p[1] <= ROUGH_CELL[1]:
+                raise ValueError(f"rough CELL must be between {ROUGH_CELL[0]:g} and {ROUGH_CELL[1]:g} m (the "
+                                 f"grid covers x {EXTENT_X[0]:g}..{EXTENT_X[1]:g}, y {EXTENT_Y[0]:g}.."
+                                 f"{EXTENT_Y[1]:g}), got {p[1]:g}")
+        if len(p) > 2 and (p[2] < 0 or not p[2].is_integer()):
+            raise ValueError(f"rough SEED must be a non-negative integer, got {_g(p[2])}")
+    elif kind == "matrix":
+        if not (p[0].is_integer() and p[1].is_integer()) or p[0] < 2 or p[1] < 2:
+            raise ValueError(f"matrix needs NX >= 2 and NY >= 2 grid points, got {_g(p[0])} x {_g(p[1])}")
+        if p[3] <= p[2] or p[5] <= p[4]:
+            raise ValueError(f"matrix extent needs X0 < X1 and Y0 < Y1, got x {p[2]:g}..{p[3]:g}, "
+                             f"y {p[4]:g}..{p[5]:g}")
+        if heights is not None:
+            nx, ny = int(p[0]), int(p[1])
+            rows = [tuple(float(v) for v in row) for row in heights]
+            if len(rows) != ny or any(len(r) != nx for r in rows):
+                raise ValueError(f"matrix heights must be NY = {ny} rows of NX = {nx} numbers")
+            if not all(math.isfinite(v) for r in rows for v in r):
+                raise ValueError("matrix heights must be finite numbers")
+            heights = tuple(rows)
+    return TerrainDef(kind, p, heights=heights, axis=axis if kind == "ramp" else "Y", line=line)
+
+
+def _spec_number(tok: str, what: str) -> float:
+    try:
+        v = float(tok)
+    except ValueError:
+        raise ValueError(f"{what} expects a number, got {tok!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{what}: {tok!r} is not a finite number")
+    return v
+
+
+def parse_terrain(spec: str) -> TerrainDef:
+    """Command-line text (``bump:0.02@1.0:0.3``, :data:`TERRAIN_SYNTAX`) to a checked TerrainDef.
+
+    Raises ``ValueError("terrain 'SPEC': what is wrong (e.g. EXAMPLE)")``.
+    """
+    text = str(spec).strip()
+    kind, _, rest = text.partition(":")
+    kind = kind.lower()
+    if kind not in _EXAMPLES:
+        hint = " (a matrix terrain is given in a .wl file)" if kind == "matrix" else ""
+        raise ValueError(f"unknown terrain {text!r}{hint}; expected {TERRAIN_SYNTAX}")
+    try:
+        axis = "Y"
+        if kind == "flat":
+            if rest:
+                raise ValueError("flat takes no parameters")
+            p: list[float] = []
+        elif kind == "ramp":
+            parts = rest.split(":")
+            if len(parts) > 2:
+                raise ValueError(f"ramp takes SLOPE[:X|Y], got {len(parts)} parameters")
+            p = [_spec_number(parts[0], "ramp SLOPE")]
+            axis = parts[1].upper() if len(parts) > 1 else "Y"
+        elif kind == "bump":
+            head, _, width = rest.partition(":")
+            if ":" in width:
+                raise ValueError("bump takes HEIGHT[@Y][:WIDTH], got more parameters")
+            hstr, _, ystr = head.partition("@")
+            p = [_spec_number(hstr, "bump HEIGHT"), _spec_number(ystr, "bump Y") if ystr else 1.0,
+                 _spec_number(width, "bump WIDTH") if width else 0.3]
+        else:  # rough
+            parts = rest.split(":")
+            if len(parts) > 3:
+                raise ValueError(f"rough takes RANGE[:CELL[:SEED]], got {len(parts)} parameters")
+            p = [_spec_number(parts[0], "rough RANGE"),
+                 _spec_number(parts[1], "rough CELL") if len(parts) > 1 and parts[1] else 0.1]
+            if len(parts) > 2 and parts[2]:
+                p.append(_spec_number(parts[2], "rough SEED"))
+        return check_terrain(kind, p, axis)
+    except ValueError as e:
+        raise ValueError(f"terrain {text!r}: {e} (e.g. {_EXAMPLES[kind]})") from None
+
+
+def terrain_spec(tdef: TerrainDef) -> str:
+    """The command-line text of a TerrainDef (``bump:0.02@1.0:0.3``; ``matrix`` for a matrix)."""
+    kind = tdef.kind.lower()
+    p = [repr(float(v)) for v in tdef.params]
+    if kind == "bump":
+        return f"bump:{p[0]}" + (f"@{p[1]}" if len(p) > 1 else "") + (f":{p[2]}" if len(p) > 2 else "")
+    if kind == "ramp":
+        return f"ramp:{p[0]}:{tdef.axis}"
+    return ":".join([kind, *p]) if kind != "matrix" else "matrix"
+
+
 def make_terrain(spec: str | TerrainDef | None) -> Terrain:
-    """Build a Terrain from CLI text (``bump:0.02@1.0``) or a `.wl` TerrainDef."""
+    """Build a Terrain from CLI text (``bump:0.02@1.0``) or a `.wl` TerrainDef, checked by :func:`check_terrain`."""
     if spec is None:
         return Terrain()
     if isinstance(spec, TerrainDef):
-        kind, params, axis = spec.kind.lower(), tuple(spec.params), spec.axis
-        if kind == "matrix":
-            nx, ny, x0, x1, y0, y1 = params[:6]
-            h = np.asarray(spec.heights, float).reshape(int(ny), int(nx))
-            return Terrain("matrix", h, x0, y0, (x1 - x0) / max(int(nx) - 1, 1), (y1 - y0) / max(int(ny) - 1, 1))
-        p = [repr(float(v)) for v in params]
-        if kind == "bump":
-            text = f"bump:{p[0]}" + (f"@{p[1]}" if len(p) > 1 else "") + (f":{p[2]}" if len(p) > 2 else "")
-        elif kind == "ramp":
-            text = f"ramp:{p[0]}:{axis}"
-        else:
-            text = ":".join([kind, *p])
-        return make_terrain(text)
-    text = spec.strip()
-    kind, _, rest = text.partition(":")
-    kind = kind.lower()
-    try:
-        if kind == "flat":
-            return Terrain()
-        if kind == "ramp":
-            parts = rest.split(":")
-            slope = float(parts[0])
-            axis = parts[1].upper() if len(parts) > 1 else "Y"
-            xs, ys = _grid(EXTENT_X, EXTENT_Y, 0.5)
-            coord = xs[None, :] if axis == "X" else ys[:, None]
-            h = -np.tan(slope) * np.maximum(coord, 0.0) * np.ones((len(ys), len(xs)))
-            return Terrain(text, h, xs[0], ys[0], xs[1] - xs[0], ys[1] - ys[0])
-        if kind == "bump":
-            head, _, width = rest.partition(":")
-            hstr, _, ystr = head.partition("@")
-            height = float(hstr)
-            y_at = float(ystr) if ystr else 1.0
-            w = float(width) if width else 0.3
-            cell = 0.01
-            ys = np.arange(y_at - 0.1, y_at + w + 0.1 + cell / 2, cell)
-            inside = (ys >= y_at - 1e-9) & (ys <= y_at + w + 1e-9)
-            h = np.where(inside, height, 0.0)[:, None] * np.ones((1, 2))
-            return Terrain(text, h, EXTENT_X[0], ys[0], EXTENT_X[1] - EXTENT_X[0], cell)
-        if kind == "rough":
-            parts = rest.split(":")
-            rng_range = float(parts[0])
-            cell = float(parts[1]) if len(parts) > 1 and parts[1] else 0.1
-            seed = int(float(parts[2])) if len(parts) > 2 and parts[2] else 0
-            xs, ys = _grid(EXTENT_X, EXTENT_Y, cell)
-            h = np.random.default_rng(seed).uniform(0.0, rng_range, size=(len(ys), len(xs)))
-            return Terrain(text, h, xs[0], ys[0], cell, cell)
-    except (ValueError, IndexError) as e:
-        raise ValueError(f"bad terrain {text!r}: {e}; expected flat | ramp:SLOPE[:X|Y] | "
-                         "bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]") from None
-    raise ValueError(f"unknown terrain {text!r}; expected flat | ramp:SLOPE[:X|Y] | "
-                     "bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]")
+        tdef = check_terrain(spec.kind, spec.params, spec.axis, spec.heights, spec.line)
+        text = terrain_spec(tdef)
+    else:
+        text = str(spec).strip()
+        tdef = parse_terrain(text)
+    kind, p = tdef.kind, tdef.params
+    if kind == "flat":
+        return Terrain()
+    if kind == "matrix":
+        nx, ny, x0, x1, y0, y1 = p
+        h = np.asarray(tdef.heights, float).reshape(int(ny), int(nx))
+        return Terrain("matrix", h, x0, y0, (x1 - x0) / max(int(nx) - 1, 1), (y1 - y0) / max(int(ny) - 1, 1))
+    if kind == "ramp":
+        xs, ys = _grid(EXTENT_X, EXTENT_Y, 0.5)
+        coord = xs[None, :] if tdef.axis == "X" else ys[:, None]
+        h = -np.tan(p[0]) * np.maximum(coord, 0.0) * np.ones((len(ys), len(xs)))
+        return Terrain(text, h, xs[0], ys[0], xs[1] - xs[0], ys[1] - ys[0])
+    if kind == "bump":
+        height = p[0]
+        y_at = p[1] if len(p) > 1 else 1.0
+        w = p[2] if len(p) > 2 else 0.3
+        cell = BUMP_CELL
+        ys = np.arange(y_at - 0.1, y_at + w + 0.1 + cell / 2, cell)
+        inside = (ys >= y_at - 1e-9) & (ys <= y_at + w + 1e-9)
+        h = np.where(inside, height, 0.0)[:, None] * np.ones((1, 2))
+        return Terrain(text, h, EXTENT_X[0], ys[0], EXTENT_X[1] - EXTENT_X[0], cell)
+    # rough
+    rng_range = p[0]
+    cell = p[1] if len(p) > 1 else 0.1
+    seed = int(p[2]) if len(p) > 2 else 0
+    xs, ys = _grid(EXTENT_X, EXTENT_Y, cell)
+    h = np.random.default_rng(seed).uniform(0.0, rng_range, size=(len(ys), len(xs)))
+    return Terrain(text, h, xs[0], ys[0], cell, cell)
 
 
 def height_and_normal(terrain: Terrain, x, y):

@@ -241,12 +241,12 @@ def test_control_index_follows_file_order_of_controlled_joints():
     ("Terrain rough 0.04 0.2 7", "rough", (0.04, 0.2, 7.0), "Y"),
 ])
 def test_terrain_kinds(line, kind, params, axis):
-    t = parse_wl(line + "\n").terrain
+    t = parse_wl(line + "\n" + OBJ_A).terrain
     assert (t.kind, t.params, t.axis, t.heights, t.line) == (kind, params, axis, None, 1)
 
 
 def test_terrain_matrix():
-    d = parse_wl("Terrain matrix 3 2 -1 1 0 4\n{\n 0 .1 .2\n .3 .4 .5 }\nTimeMax 1\n")
+    d = parse_wl("Terrain matrix 3 2 -1 1 0 4\n{\n 0 .1 .2\n .3 .4 .5 }\nTimeMax 1\n" + OBJ_A)
     t = d.terrain
     assert t.kind == "matrix" and t.params == (3.0, 2.0, -1.0, 1.0, 0.0, 4.0)
     assert t.heights == ((0.0, 0.1, 0.2), (0.3, 0.4, 0.5))
@@ -268,8 +268,10 @@ def _strip(d: Description) -> dict:
 
 
 @pytest.mark.parametrize("text", [SMALL, THESIS_EXCERPT + EXCERPT_FILLER,
-                                  "Terrain matrix 2 2 0 1 0 1 { 0 1\n 2 3 }\n",
-                                  "Terrain rough 0.02 0.1 3\nJointSpring 2e4 50\nTimeStep 1e-4\n"])
+                                  "Terrain matrix 2 2 0 1 0 1 { 0 1\n 2 3 }\nObject A {\n Type Sphere\n Mass 1\n"
+                                  " Dimensions .1\n}\n",
+                                  "Terrain rough 0.02 0.1 3\nJointSpring 2e4 50\nTimeStep 1e-4\nObject A {\n"
+                                  " Type Sphere\n Mass 1\n Dimensions .1\n}\n"])
 def test_format_round_trip(tmp_path, text):
     d = parse_wl(text)
     again = load_wl(_write(tmp_path, format_wl(d), "again.wl"))
@@ -279,7 +281,7 @@ def test_format_round_trip(tmp_path, text):
 
 def test_load_wl_accepts_pathlib(tmp_path):
     p = tmp_path / "m.wl"
-    p.write_text("TimeMax 4\n")
+    p.write_text("TimeMax 4\nObject A {\n Type Sphere\n Mass 1\n Dimensions .1\n}\n")
     assert load_wl(p).time_max == 4.0 and load_wl(p).path == str(p)
 
 

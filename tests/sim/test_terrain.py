@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from cpgjax.sim.description import TerrainDef
-from cpgjax.sim.terrain import height_and_normal, make_terrain
+from cpgjax.sim.terrain import check_terrain, height_and_normal, make_terrain, parse_terrain
 
 
 def test_matrix_is_bilinearly_interpolated_with_its_normal():
@@ -43,7 +43,36 @@ def test_wl_terrain_statements_match_the_cli_syntax():
                           make_terrain("rough:0.03:0.1:7").heights)
 
 
-@pytest.mark.parametrize("bad", ["hill:1", "bump:x", "rough:"])
+@pytest.mark.parametrize("bad", ["hill:1", "bump:x", "rough:", "ramp:2", "bump:0.1:0", "bump:0.1:-0.2",
+                                 "rough:0.01:0"])
 def test_bad_terrain_text_is_a_clear_error(bad):
     with pytest.raises(ValueError, match="terrain"):
         make_terrain(bad)
+
+
+def test_cli_spec_gives_the_checked_terrain_def_with_its_defaults():
+    assert parse_terrain("bump:0.02") == check_terrain("bump", (0.02, 1.0, 0.3))
+    assert parse_terrain("ramp:-0.1:x") == check_terrain("ramp", (-0.1,), "X")
+    assert parse_terrain("rough:0.02::3") == check_terrain("rough", (0.02, 0.1, 3.0))
+
+
+def test_cli_errors_name_the_spec_and_give_an_example():
+    with pytest.raises(ValueError) as e:
+        make_terrain("bump:0.1:0")
+    assert str(e.value) == ("terrain 'bump:0.1:0': bump WIDTH must be positive (metres along y), got 0 "
+                            "(e.g. bump:0.02@1.0:0.3)")
+
+
+@pytest.mark.parametrize(("tdef", "message"), [
+    (TerrainDef("ramp", (2.0,)), "|SLOPE| < pi/2"),
+    (TerrainDef("bump", (0.1, 1.0, -0.2)), "bump WIDTH must be positive"),
+    (TerrainDef("rough", (0.01, 0.0)), "rough CELL must be positive"),
+    (TerrainDef("rough", (0.01, 0.1, 1.5)), "rough SEED must be a non-negative integer, got 1.5"),
+    (TerrainDef("matrix", (2, 2, 0.0, 1.0, 0.0, 1.0), ((0.0, 1.0),)), "matrix heights must be NY = 2 rows"),
+    (TerrainDef("matrix", (2, 2, 1.0, 0.0, 0.0, 1.0), ((0.0, 1.0), (0.0, 1.0))), "X0 < X1"),
+    (TerrainDef("flat", (1.0,)), "flat terrain takes 0 to 0 parameters"),
+    (TerrainDef("hill"), "unknown terrain kind 'hill'"),
+])
+def test_a_terrain_def_made_in_code_is_checked_too(tdef, message):
+    with pytest.raises(ValueError, match=message.replace("|", r"\|").replace("(", r"\(")):
+        make_terrain(tdef)
