@@ -21,10 +21,11 @@ ALLOWED: dict[str, set[str]] = {
     "io": {"base", "sim"},
     "optim": {"base", "sim", "episode", "io"},
     "crosscheck": {"base", "sim", "episode", "io"},
+    "render": {"base", "sim", "episode", "io", "crosscheck"},
     "analysis": {"base", "sim", "episode", "io", "optim"},
-    "experiments": {"base", "sim", "episode", "io", "optim", "crosscheck", "analysis"},
+    "experiments": {"base", "sim", "episode", "io", "optim", "crosscheck", "render", "analysis"},
     "plots": {"base", "sim", "episode", "io", "optim", "analysis"},
-    "cli": {"base", "sim", "episode", "io", "optim", "crosscheck", "analysis", "experiments", "plots"},
+    "cli": {"base", "sim", "episode", "io", "optim", "crosscheck", "render", "analysis", "experiments", "plots"},
 }
 BASE = {"cpgjax", "cpgjax._xla", "cpgjax.errors"}
 

@@ -1,0 +1,195 @@
+"""The thesis's transfer experiment (Figs. 6.3-6.4) with MuJoCo C in the place of the robot.
+
+The thesis evolved a gait in its simulator and ran it on the robot: 0.15 m/s simulated, 0.19 m/s
+on the robot.  Here each run's best controller is replayed in our simulator and in MuJoCo C (the
+exported model, :mod:`cpgjax.crosscheck.mjcf`): once as it is, and ``replays`` times with every
+gene jittered by ``N(0, jitter^2)`` (the same jittered controllers in both engines).  Per run:
+fitness and speed here and there, their ratio, and the falls among the jittered replays — for
+runs evolved with the thesis's single episode and with the robust evaluation, side by side.
+
+A run is replayed on the model text stored in its file (not the `.wl` on disk, which may have
+changed since) and on the terrain and episode length it was evolved with (for a robust run: its
+nominal terrain, without the evaluation's roughness).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from cpgjax.crosscheck.engines import mujoco_run, spearman
+from cpgjax.crosscheck.mjcf import load
+from cpgjax.episode.batch import simulate
+from cpgjax.io.results import read_run
+from cpgjax.io.sweepdir import find_runs
+from cpgjax.io.wl import parse_wl
+from cpgjax.sim.model import build_model
+
+# What "carries over" means (project issue 11): the gait walks in MuJoCo at >= 70 % of the fitness it
+# scores here, and falls in at most 2 of 32 jittered MuJoCo replays.
+MIN_RATIO = 0.7
+MAX_FALLS = 2
+
+
+@dataclass
+class Replay:
+    """One run's best controller, replayed in both engines."""
+
+    run: str
+    evaluation: str          # "thesis" | "robust"
+    cell: str
+    seed: int
+    fitness_in_run: float    # the score the GA recorded for it
+    ours: dict               # fitness, speed, fallen (the controller as it is)
+    mujoco: dict
+    ours_jit: dict           # mean, sd, falls over the jittered replays
+    mujoco_jit: dict
+
+    @property
+    def ratio(self) -> float:
+        return self.mujoco["fitness"] / self.ours["fitness"] if self.ours["fitness"] > 0 else float("nan")
+
+    @property
+    def carries_over(self) -> bool:
+        return bool(self.ratio >= MIN_RATIO and self.mujoco_jit["falls"] <= MAX_FALLS)
+
+
+def run_files(paths) -> list[str]:
+    """RUN.h5 files, and every run file under each sweep folder given."""
+    out: list[str] = []
+    for p in paths:
+        p = os.fspath(p)
+        if os.path.isdir(p):
+            found = [f for fs in find_runs(p).values() for f in fs]
+            if not found:
+                raise ValueError(f"{p}: no run files (<cell>/s<seed>.h5) in this folder")
+            out += found
+        else:
+            out.append(p)
+    return out
+
+
+def _setting(run) -> tuple[str, float | None, str | None]:
+    cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
+    evaluation = str(run.meta.get("evaluation", "thesis"))
+    return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
+
+
+def _stats(res: dict) -> dict:
+    f = np.asarray(res["fitness"], float)
+    return {"mean": float(f.mean()), "sd": float(f.std()), "falls": int(np.asarray(res["fallen"]).sum()),
+            "speed": float(np.asarray(res["speed"], float).mean())}
+
+
+def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, progress=None) -> list[Replay]:
+    """Replay the best controller of every run in ``paths`` here and in MuJoCo C (see the module docstring)."""
+    out = []
+    rng = np.random.default_rng(seed)
+    for path in run_files(paths):
+        run = read_run(path)
+        if run.completed == 0:
+            raise ValueError(f"{path}: no generations in the file")
+        _, _, fit, genome = run.best()
+        evaluation, time, terrain = _setting(run)
+        text = str(run.meta.get("model_text", ""))
+        if not text:
+            raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
+        model = build_model(parse_wl(text, str(run.meta.get("model_path", path))), terrain=terrain)
+        T = float(time or model.time_max)
+        c = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
+        C = np.concatenate([c[None], np.clip(c[None] + rng.normal(0, jitter, (replays,) + c.shape), -0.8, 0.8)])
+        C = C.astype(np.float32)
+        ours = simulate(model, C, time=T)
+        mj, _, _ = mujoco_run(model, C, time=T, mj=load(model))
+        pick = lambda r, i: {k: float(np.asarray(r[k])[i]) for k in ("fitness", "speed", "distance")} | {  # noqa: E731
+            "fallen": bool(np.asarray(r["fallen"])[i])}
+        rest = lambda r: {k: np.asarray(r[k])[1:] for k in ("fitness", "speed", "fallen")}  # noqa: E731
+        out.append(Replay(run=path, evaluation=evaluation, cell=os.path.basename(os.path.dirname(path)),
+                          seed=int(run.config.get("seed", 0)), fitness_in_run=float(fit),
+                          ours=pick(ours, 0), mujoco=pick(mj, 0), ours_jit=_stats(rest(ours)),
+                          mujoco_jit=_stats(rest(mj))))
+        if progress is not None:
+            progress(out[-1])
+    return out
+
+
+def summary(replays: list[Replay]) -> dict:
+    """Per evaluation mode: runs, median and mean ratio, falls, how many carry over; Spearman over all runs."""
+    out: dict = {"runs": len(replays)}
+    for mode in sorted({r.evaluation for r in replays}):
+        rs = [r for r in replays if r.evaluation == mode]
+        ratios = np.array([r.ratio for r in rs], float)
+        out[mode] = {
+            "runs": len(rs),
+            "ours_fitness": float(np.mean([r.ours["fitness"] for r in rs])),
+            "mujoco_fitness": float(np.mean([r.mujoco["fitness"] for r in rs])),
+            "ratio_median": float(np.nanmedian(ratios)) if np.isfinite(ratios).any() else float("nan"),
+            "ratio_mean": float(np.nanmean(ratios)) if np.isfinite(ratios).any() else float("nan"),
+            "mujoco_falls_mean": float(np.mean([r.mujoco_jit["falls"] for r in rs])),
+            "ours_falls_mean": float(np.mean([r.ours_jit["falls"] for r in rs])),
+            "carry_over": int(sum(r.carries_over for r in rs)),
+        }
+    if len(replays) > 2:
+        out["spearman_fitness"] = spearman([r.ours["fitness"] for r in replays],
+                                           [r.mujoco["fitness"] for r in replays])
+    return out
+
+
+def table(replays: list[Replay], replay_count: int) -> str:
+    """The markdown table: one row per run, then one per evaluation mode."""
+    n = replay_count
+    lines = [f"| run | evaluation | fitness here | speed here [m/s] | fitness MuJoCo | speed MuJoCo [m/s] | ratio | "
+             f"here, {n} jittered: mean ± sd (falls) | MuJoCo, {n} jittered: mean ± sd (falls) | carries over |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for r in replays:
+        fell = lambda d: " (fell)" if d["fallen"] else ""  # noqa: E731
+        lines.append(
+            f"| {r.cell}/s{r.seed} | {r.evaluation} | {r.ours['fitness']:.3f}{fell(r.ours)} | {r.ours['speed']:.3f} | "
+            f"{r.mujoco['fitness']:.3f}{fell(r.mujoco)} | {r.mujoco['speed']:.3f} | {r.ratio:.2f} | "
+            f"{r.ours_jit['mean']:.3f} ± {r.ours_jit['sd']:.3f} ({r.ours_jit['falls']}) | "
+            f"{r.mujoco_jit['mean']:.3f} ± {r.mujoco_jit['sd']:.3f} ({r.mujoco_jit['falls']}) | "
+            f"{'yes' if r.carries_over else 'no'} |")
+    s = summary(replays)
+    lines += ["", "| evaluation | runs | mean fitness here | mean fitness MuJoCo | ratio (median) | "
+              f"MuJoCo falls of {n} (mean) | falls here of {n} (mean) | runs that carry over |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for mode in ("thesis", "robust"):
+        if mode in s:
+            m = s[mode]
+            lines.append(f"| {mode} | {m['runs']} | {m['ours_fitness']:.3f} | {m['mujoco_fitness']:.3f} | "
+                         f"{m['ratio_median']:.2f} | {m['mujoco_falls_mean']:.1f} | {m['ours_falls_mean']:.1f} | "
+                         f"{m['carry_over']} of {m['runs']} |")
+    if "spearman_fitness" in s:
+        lines += ["", f"Spearman rank correlation of fitness, here vs MuJoCo, over these runs' bests: "
+                      f"{s['spearman_fitness']:+.2f}"]
+    lines += ["", f"Carries over: MuJoCo fitness ≥ {MIN_RATIO:.0%} of ours and at most {MAX_FALLS} falls in the "
+                  f"{n} jittered MuJoCo replays."]
+    return "\n".join(lines)
+
+
+def plot(replays: list[Replay], out: str) -> None:
+    """Fitness here vs in MuJoCo, one point per run, coloured by evaluation mode (cf. thesis Fig. 6.3-6.4)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(5.5, 5), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    hi = max([0.05] + [max(r.ours["fitness"], r.mujoco["fitness"]) for r in replays]) * 1.1
+    ax.plot([0, hi], [0, hi], "k:", lw=1, label="same in both")
+    ax.plot([0, hi], [0, MIN_RATIO * hi], color="0.6", lw=1, label=f"{MIN_RATIO:.0%} of ours")
+    for mode, color in (("thesis", "tab:red"), ("robust", "tab:blue")):
+        rs = [r for r in replays if r.evaluation == mode]
+        if rs:
+            ax.errorbar([r.ours["fitness"] for r in rs], [r.mujoco_jit["mean"] for r in rs],
+                        yerr=[r.mujoco_jit["sd"] for r in rs], fmt="o", color=color, alpha=0.8,
+                        label=f"{mode} evaluation: best of each run (MuJoCo: mean ± sd of jittered replays)")
+    ax.set_xlabel("fitness in the penalty simulator (eq. 4.6)")
+    ax.set_ylabel("fitness in MuJoCo C")
+    ax.set_title("Do evolved gaits carry over? (MuJoCo as the robot)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    fig.savefig(out, dpi=110)
