@@ -21,6 +21,8 @@ run: $(STAMP)
 	$(BIN)/cpgjax best runs/quickstart.h5 --ctl runs/quickstart-best.ctl
 	@echo "fitness plot: runs/quickstart.png   best controller: runs/quickstart-best.ctl"
 	@echo "replay it:    $(BIN)/cpgjax simulate models/quadruped.wl --ctl runs/quickstart-best.ctl"
+	@echo "cpgjax is installed in $(VENV), not on your PATH: run it as $(BIN)/cpgjax COMMAND,"
+	@echo "or first 'source $(BIN)/activate' and then just cpgjax COMMAND (cpgjax --help lists them)"
 
 lint: $(STAMP)
 	$(BIN)/ruff check cpgjax tests

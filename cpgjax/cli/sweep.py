@@ -16,24 +16,7 @@ import os
 import sys
 from typing import Any
 
-
-def _list(conv, what: str):
-    """An argparse type for a comma list (``0,0.01,0.1``), naming the option and the bad item on error."""
-
-    def parse(text: str) -> list:
-        out = []
-        for x in text.split(","):
-            if not x.strip():
-                continue
-            try:
-                out.append(conv(x.strip()))
-            except ValueError:
-                raise argparse.ArgumentTypeError(f"{what}: {x.strip()!r} in {text!r} is not valid") from None
-        if not out:
-            raise argparse.ArgumentTypeError(f"{what}: empty list")
-        return out
-
-    return parse
+from cpgjax.cli import options as o
 
 
 def _onoff(x: str) -> bool:
@@ -45,32 +28,40 @@ def _onoff(x: str) -> bool:
     raise ValueError(x)
 
 
-_floats = _list(float, "expected numbers, e.g. 0,0.01,0.1,1")
-_ints = _list(int, "expected whole numbers, e.g. 0,4")
-_bools = _list(_onoff, "expected on/off, e.g. off,on")
+_floats = o.list_of(o.nonneg, "expected numbers >= 0, e.g. 0,0.01,0.1,1")
+_pockets = o.list_of(o.count0, "expected whole numbers >= 0, e.g. 0,4")
+_counts = o.list_of(o.count, "expected whole numbers >= 1, e.g. 10,20")
+_bools = o.list_of(_onoff, "expected on/off, e.g. off,on")
+DEFAULT_SEEDS = 5
 
 
 def _seeds(s: str) -> list[int]:
     """``5`` = seeds 0..4; ``3,7,9`` = those seeds; ``10:15`` = 10..14."""
     try:
         if "," in s:
-            return [int(x) for x in s.split(",") if x.strip()]
-        if ":" in s:
+            out = [o.whole(x.strip(), lo=0, hi=o.MAX_SEED) for x in s.split(",") if x.strip()]
+        elif ":" in s:
             a, b = s.split(":")
-            return list(range(int(a), int(b)))
-        return list(range(int(s)))
-    except ValueError:
+            out = list(range(o.whole(a, lo=0, hi=o.MAX_SEED), o.whole(b, lo=0, hi=o.MAX_SEED)))
+        else:
+            out = list(range(o.whole(s, lo=1)))
+    except (ValueError, argparse.ArgumentTypeError):
+        out = []
+    if not out:
         raise argparse.ArgumentTypeError(f"seeds: expected a count (5), a list (3,7,9) or a range (10:15), "
-                                         f"got {s!r}") from None
+                                         f"got {s!r}")
+    return out
 
 
 GRID = ("gamma", "pocket", "crossover", "population", "generations", "mu_max", "mutation", "sigma", "selection",
         "no_ga", "baselines", "samples")
-DEFAULTS = {"gamma": [0.0], "pocket": [0], "crossover": [False], "population": [20], "generations": 150,
-            "mu_max": 0.2, "seeds": list(range(5))}
 
 
 def register(subparsers: Any) -> None:
+    from cpgjax.episode.fitness import DEFAULT_DELTA
+    from cpgjax.optim.ga import MUTATIONS, SELECTIONS, GAConfig
+
+    d = GAConfig()
     p = subparsers.add_parser(
         "sweep", help="many GA / baseline runs (settings x seeds) batched into one XLA program",
         description="Run every combination of the listed settings for every seed, batched into one jitted "
@@ -81,23 +72,33 @@ def register(subparsers: Any) -> None:
     p.add_argument("--preset", choices=("full", "tiny"), default=None,
                    help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.experiments.sweep.SCALES); "
                         "other grid options ignored")
-    p.add_argument("--gamma", type=_floats, help="comma list of γ (eq. 6.1), default 0")
-    p.add_argument("--pocket", type=_ints, help="comma list of pocket sizes P (0 = off), default 0")
-    p.add_argument("--crossover", type=_bools, help="comma list of on/off, default off")
-    p.add_argument("--population", type=_ints, help="comma list of population sizes, default 20")
-    p.add_argument("--generations", type=int, help="generations per GA run, default 150")
-    p.add_argument("--mu-max", type=float, help="mutation rate at generation 0 (eq. 6.1), default 0.2")
-    p.add_argument("--mutation", choices=("gauss", "redraw"), help="how a mutated gene changes, default gauss")
-    p.add_argument("--sigma", type=float, help="std of the Gaussian mutation step, default 0.1")
-    p.add_argument("--selection", choices=("clip", "shift"), help="reading of 'probability ∝ fitness', default clip")
+    p.add_argument("--gamma", type=_floats, help=f"comma list of γ (eq. 6.1), default {d.gamma:g}")
+    p.add_argument("--pocket", type=_pockets, help=f"comma list of pocket sizes P (0 = off), default {d.pocket}")
+    p.add_argument("--crossover", type=_bools,
+                   help=f"comma list of on/off, default {'on' if d.crossover else 'off'}")
+    p.add_argument("--population", type=_counts, help=f"comma list of population sizes, default {d.population}")
+    p.add_argument("--generations", type=o.count, help=f"generations per GA run, default {d.generations}")
+    p.add_argument("--mu-max", type=o.fraction, help=f"mutation rate at generation 0 (eq. 6.1), default {d.mu_max}")
+    p.add_argument("--mutation", choices=MUTATIONS, help=f"how a mutated gene changes, default {d.mutation}")
+    p.add_argument("--sigma", type=o.nonneg, help=f"std of the Gaussian mutation step, default {d.sigma}")
+    p.add_argument("--selection", choices=SELECTIONS,
+                   help=f"reading of 'probability ∝ fitness', default {d.selection}")
     p.add_argument("--no-ga", action="store_true", help="baselines only")
     p.add_argument("--baselines", help="comma list of random, amc3, amc5, amc10, ... (default none)")
-    p.add_argument("--samples", type=int, help="baseline budget (default population x generations)")
-    p.add_argument("--seeds", type=_seeds, help="5 (= seeds 0..4, the default), a comma list 3,7,9 or a range 10:15")
-    p.add_argument("--time", type=float, default=None, help="episode length in s (default: the model's TimeMax)")
-    p.add_argument("--terrain", default=None, help="flat | ramp:… | bump:… | rough:… (default: the model's)")
-    p.add_argument("--delta", type=float, default=None, help="δ of the fitness, eq. 4.5 (default 8)")
-    p.add_argument("--chunk", type=int, default=1, help="generations per jitted chunk (default 1)")
+    p.add_argument("--samples", type=o.count, help="baseline budget (default population x generations)")
+    p.add_argument("--seeds", type=_seeds,
+                   help=f"{DEFAULT_SEEDS} (= seeds 0..{DEFAULT_SEEDS - 1}, the default), a comma list 3,7,9 "
+                        "or a range 10:15")
+    p.add_argument("--time", type=o.seconds, default=None, help="episode length in s (default: the model's TimeMax)")
+    p.add_argument("--terrain", type=o.terrain, default=None, help=f"{o.TERRAIN_HELP} (default: the model's)")
+    p.add_argument("--delta", type=o.positive, default=None,
+                   help=f"δ of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
+    p.add_argument("--evaluation", choices=("thesis", "robust"), default=None,
+                   help="thesis: one exact episode per controller (default); robust: R perturbed episodes "
+                        "(see cpgjax evolve --help)")
+    p.add_argument("--perturb", type=o.perturbations, default=None, metavar="KEY=VALUE,...",
+                   help="robust evaluation ranges (see cpgjax evolve --help)")
+    p.add_argument("--chunk", type=o.count, default=d.chunk, help=f"generations per jitted chunk (default {d.chunk})")
     p.add_argument("--group", choices=("all", "kind"), default="all",
                    help="all runs in one program (default) or one program per group of same-shaped runs")
     p.add_argument("--overwrite", action="store_true", help="start every run anew")
@@ -129,6 +130,7 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
     from cpgjax.experiments import sweep
 
     problem_args: dict[str, Any] = {"model": args.model, "time": args.time, "terrain": args.terrain,
+                                    "evaluation": args.evaluation, "perturb": args.perturb,
                                     "delta": args.delta}
     if args.preset:
         given = [f"--{k.replace('_', '-')}" for k in GRID if getattr(args, k) not in (None, False)]
@@ -140,7 +142,12 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
             problem_args["time"] = s["time"]
         seeds = args.seeds if args.seeds is not None else list(range(s["seeds"]))
         return sweep.plan(args.out, sweep.thesis_cells(args.preset), seeds, chunk=args.chunk), problem_args
-    a = {k: (getattr(args, k) if getattr(args, k) is not None else DEFAULTS.get(k)) for k in (*GRID, "seeds")}
+    from cpgjax.optim.ga import GAConfig
+
+    d = GAConfig()
+    defaults = {"gamma": [d.gamma], "pocket": [d.pocket], "crossover": [d.crossover], "population": [d.population],
+                "generations": d.generations, "mu_max": d.mu_max, "seeds": list(range(DEFAULT_SEEDS))}
+    a = {k: (getattr(args, k) if getattr(args, k) is not None else defaults.get(k)) for k in (*GRID, "seeds")}
     extra = {k: a[k] for k in ("mutation", "sigma", "selection") if a[k] is not None}
     cells: list = []
     if not a["no_ga"]:
@@ -157,22 +164,26 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from cpgjax.experiments import sweep
-    from cpgjax.io.results import ResultsError
+    from cpgjax.experiments.evolve import deferred_sigint
 
-    try:
+    with deferred_sigint():
         specs, pa = build_specs(args)
         if args.dry_run:
             for s in specs:
                 print(f"{s.path}  {s.kind}  seed {s.seed}")
             print(f"{len(specs)} runs, {sweep.total_batch(specs)} evaluations per sweep generation")
             return 0
-        problem = sweep.sweep_problem(pa, batch=sweep.total_batch(specs))
-        sweep.write_manifest(args.out, specs, pa)
-        summary = sweep.run_sweep(problem, specs, chunk=args.chunk, overwrite=args.overwrite,
-                                  progress=not args.quiet, group=args.group)
-    except (ResultsError, ValueError, FileNotFoundError, OSError) as e:
-        print(f"cpgjax sweep: error: {e}", file=sys.stderr)
-        return 1
+        o.check_output_dir(args.out)
+        try:
+            problem = sweep.sweep_problem(pa, batch=sweep.total_batch(specs))
+            sweep.write_manifest(args.out, specs, pa)
+            summary = sweep.run_sweep(problem, specs, chunk=args.chunk, overwrite=args.overwrite,
+                                      progress=not args.quiet, group=args.group)
+        except KeyboardInterrupt:
+            from cpgjax.cli.evolve import resume_command
+
+            raise KeyboardInterrupt(f"every generation computed is written under {args.out}; continue with: "
+                                    f"{resume_command(args, args.out, resume=False)}") from None
     print(f"{args.out}: {summary['runs']} runs ({summary['skipped']} already complete), "
           f"{summary['evaluations']} evaluations in {summary['wall_time']:.1f} s "
           f"(compile {summary['compile_time']:.1f} s); steady state "
@@ -184,30 +195,33 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_report(args: argparse.Namespace) -> int:
     from cpgjax.analysis.report import write_report
-    from cpgjax.io.results import ResultsError
 
-    try:
-        out = args.out or os.path.join(args.sweep, "report.md")
-        text = write_report(args.sweep, out)
-    except (ResultsError, ValueError, FileNotFoundError, OSError) as e:
-        print(f"cpgjax report: error: {e}", file=sys.stderr)
-        return 1
+    out = args.out or os.path.join(args.sweep, "report.md")
+    if not os.path.isdir(args.sweep):
+        raise FileNotFoundError(2, "no such sweep folder", args.sweep)
+    o.check_output_file(out)
+    text = write_report(args.sweep, out)
     print(text)
     print(f"wrote {out}")
     return 0
 
 
 def cmd_notebook(args: argparse.Namespace) -> int:
+    from cpgjax.errors import CpgjaxError
     from cpgjax.experiments.notebook import execute
 
     env = {k: v for k, v in (("CPGJAX_SCALE", args.scale), ("CPGJAX_SWEEP_DIR", args.sweep_dir),
                              ("CPGJAX_FIG_DIR", args.fig_dir)) if v}
     out = None if args.no_save else (args.out or args.notebook)
-    root = os.getcwd()
+    if not os.path.isfile(args.notebook):
+        raise FileNotFoundError(2, "no such notebook", args.notebook)
+    o.check_output_file(out)
     try:
-        execute(args.notebook, env=env, cwd=root, out=out)
-    except Exception as e:  # a failing cell: nbclient names the cell and the traceback
-        print(f"cpgjax notebook: {args.notebook}: {type(e).__name__}: {e}", file=sys.stderr)
-        return 1
+        execute(args.notebook, env=env, cwd=os.getcwd(), out=out)
+    except (KeyboardInterrupt, OSError, CpgjaxError):
+        raise
+    except Exception as e:  # a failing cell: nbclient names the cell; keep its error's name and value
+        what = f"{getattr(e, 'ename', type(e).__name__)}: {getattr(e, 'evalue', '') or str(e).splitlines()[-1:]}"
+        raise o.CommandFailed(f"{args.notebook}: a cell failed: {what}") from None
     print(f"executed {args.notebook}" + (f", saved to {out}" if out else ""))
     return 0

@@ -9,6 +9,11 @@ the last chunk are skipped by a ``lax.cond``, so the *same* compiled program run
 from any starting generation.  Between chunks the host appends each generation to the HDF5 file
 (flushed per generation; :mod:`cpgjax.io.results`) and updates the progress bar.
 
+Ctrl-C: while a driver runs (or inside :func:`deferred_sigint`, which the command line wraps around a
+whole command), the first SIGINT only asks to stop: the driver finishes the generation in flight,
+writes it, and raises ``KeyboardInterrupt`` at a clean point (never inside XLA's compiler); a second
+SIGINT interrupts at once.  Either way the file holds only complete generations.
+
 Resume: each row stores the algorithm's state after that generation (``/state/*``; for the
 GA the population bred from it).  ``resume=True`` reads the last complete row and continues
 the scan from ``completed`` with that state; because keys depend only on (seed, GEN) and the
@@ -18,8 +23,12 @@ program is the same, the resumed file holds bit for bit the rows an uninterrupte
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
+import sys
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -98,20 +107,101 @@ def run_keys(seed: int) -> tuple[jax.Array, jax.Array, jax.Array]:
     return k_init, k_prop, k_upd
 
 
+_SIGINT = {"active": False, "requested": False}
+
+
+@contextlib.contextmanager
+def deferred_sigint():
+    """Within: the first Ctrl-C (SIGINT) only sets a flag that the drivers check between generations.
+
+    Does nothing outside the main thread, or when someone else already handles SIGINT.  The first
+    SIGINT puts the default handler back, so a second one raises ``KeyboardInterrupt`` at once.
+    """
+    if (_SIGINT["active"] or threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler):
+        yield
+        return
+
+    def handler(signum, frame):
+        _SIGINT["requested"] = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        print("\nCtrl-C: stopping at the next safe point, after the compilation or generation in flight "
+              "(Ctrl-C again to stop at once)",
+              file=sys.stderr, flush=True)
+
+    old = signal.signal(signal.SIGINT, handler)
+    _SIGINT.update(active=True, requested=False)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+        _SIGINT.update(active=False, requested=False)
+
+
+def stop_requested() -> bool:
+    """True once a Ctrl-C arrived inside :func:`deferred_sigint`."""
+    return bool(_SIGINT["requested"])
+
+
+def check_stop() -> None:
+    """Raise ``KeyboardInterrupt`` if a Ctrl-C arrived inside :func:`deferred_sigint` (a clean point to stop)."""
+    if stop_requested():
+        raise KeyboardInterrupt
+
+
+# Problem settings that do not change a fitness (a moved model file, how the options were spelled).
+_META_IGNORED = ("model_path", "cli_problem_args")
+# meta key -> (option, what it is, unit); checked in this order, every other key after them
+_META_OPTIONS = {"time": ("--time", "episode length", " s"), "terrain": ("--terrain", "terrain", ""),
+                 "delta": ("--delta", "delta of the fitness", ""), "replicas": ("--replicas", "replicas", ""),
+                 "jitter": (None, "replicas' jitter", ""), "dt": ("--dt", "time step", " s")}
+_FIX = "(drop the option, or start anew with --overwrite)"
+
+
+def _fmt(v: Any, unit: str = "") -> str:
+    if isinstance(v, bool):
+        return "on" if v else "off"
+    if isinstance(v, float):
+        return f"{v:g}{unit}"
+    return f"{v}{unit}" if not isinstance(v, str) or v else "''"
+
+
 def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
+    """Refuse to continue a run whose stored settings differ from these in anything that changes a fitness.
+
+    Checked: the kind, every setting of the algorithm but ``algo.resumable_changes``, the genome and
+    population sizes, and every entry of the problem's meta (episode length, terrain, delta,
+    replicas and their jitter, time step, the model file's text, ...).
+    """
     a = read_attrs(path)
     if a.get("kind") != algo.kind:
-        raise ResultsError(f"{path} holds a {a.get('kind')!r} run, not {algo.kind!r}")
+        raise ResultsError(f"{path}: cannot resume: it holds a {a.get('kind')!r} run, not {algo.kind!r} "
+                           "(choose another --out, or start anew with --overwrite)")
     stored = json.loads(a["config"])
-    diff = [k for k in algo.config if k not in algo.resumable_changes and stored.get(k) != algo.config[k]]
-    if diff:
-        detail = ", ".join(f"{k}: stored {stored.get(k)!r} != {algo.config[k]!r}" for k in diff)
-        raise ResultsError(f"{path}: cannot resume with different settings ({detail})")
+    for k, v in algo.config.items():
+        if k not in algo.resumable_changes and stored.get(k) != v:
+            raise ResultsError(f"{path}: cannot resume: --{k.replace('_', '-')} {_fmt(v)} differs from the "
+                               f"run's {_fmt(stored.get(k, 'unset'))} {_FIX}")
     if int(a["n_genes"]) != problem.n_genes or int(a["population"]) != algo.population:
-        raise ResultsError(f"{path}: genome or population size differs from the stored run")
-    text = str(problem.meta.get("model_text", ""))
-    if text and str(a.get("model_text", "")) and text != a.get("model_text"):
-        raise ResultsError(f"{path}: the model file changed since the run started")
+        raise ResultsError(f"{path}: cannot resume: genome or population size differs from the stored run "
+                           f"({problem.n_genes} genes x {algo.population} vs the run's {int(a['n_genes'])} x "
+                           f"{int(a['population'])}) {_FIX}")
+    old = json.loads(a.get("meta") or "{}")
+    new = json.loads(json.dumps(dict(problem.meta), default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+    given = json.loads(new.get("cli_problem_args") or "{}")
+    differ = [k for k in (set(old) | set(new)) - set(_META_IGNORED) if old.get(k) != new.get(k)]
+    # first what an option given now changes, then the model file, then whatever else differs
+    for k in [k for k in _META_OPTIONS if k in differ and _META_OPTIONS[k][0] and given.get(k) is not None]:
+        option, _, unit = _META_OPTIONS[k]
+        raise ResultsError(f"{path}: cannot resume: {option} {_fmt(new.get(k))} differs from the run's "
+                           f"{_fmt(old.get(k), unit)} {_FIX}")
+    if "model_text" in differ and old.get("model_text") and new.get("model_text"):
+        raise ResultsError(f"{path}: cannot resume: the model file {new.get('model_path', '')} changed since the "
+                           "run started (restore it, or start anew with --overwrite)")
+    for k in [k for k in _META_OPTIONS if k in differ] + sorted(set(differ) - set(_META_OPTIONS) - {"model_text"}):
+        _, what, unit = _META_OPTIONS.get(k, (None, k, ""))
+        raise ResultsError(f"{path}: cannot resume: the {what} {_fmt(new.get(k), unit)} differs from the run's "
+                           f"{_fmt(old.get(k), unit)} {_FIX}")
 
 
 def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int, ...], Any]]:
@@ -119,7 +209,12 @@ def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int
 
     Traces the simulator once (``eval_shape``): callers with many runs compute it once.
     """
-    ev = jax.eval_shape(problem.evaluate, jax.ShapeDtypeStruct((population, problem.n_genes), jnp.float32))
+    genomes = jax.ShapeDtypeStruct((population, problem.n_genes), jnp.float32)
+    if problem.stochastic:     # the robust evaluation also takes one key per genome
+        keys = jax.eval_shape(lambda: jax.random.split(jax.random.key(0), population))
+        ev = jax.eval_shape(problem.evaluate, genomes, keys)
+    else:
+        ev = jax.eval_shape(problem.evaluate, genomes)
     return {k: ((population,), np.float32) for k in ev if k not in ("fitness", "diverged")}
 
 
@@ -158,9 +253,14 @@ def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k
     return 0, (init or jax.jit(algo.init))(params, k_init), 0.0
 
 
-def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, *, chunk: int,
-         seed: int, static: tuple, resume: bool, overwrite: bool, progress: bool, stop_after: int | None,
-         callback: Callable[[int, dict[str, float]], None] | None, desc: str) -> dict[str, Any]:
+def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, **kw: Any) -> dict[str, Any]:
+    with deferred_sigint():
+        return _run_deferred(problem, algo, out, **kw)
+
+
+def _run_deferred(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, *, chunk: int,
+                  seed: int, static: tuple, resume: bool, overwrite: bool, progress: bool, stop_after: int | None,
+                  callback: Callable[[int, dict[str, float]], None] | None, desc: str) -> dict[str, Any]:
     from tqdm.auto import tqdm
 
     path = None if out is None else os.fspath(out)
@@ -182,6 +282,7 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
         return chunk_fn(params1, state1, k_prop1, k_upd1, [jnp.full((1,), gen0, jnp.int32)],
                         [jnp.full((1,), target, jnp.int32)])
 
+    check_stop()
     jax.block_until_ready(call(state1, 0, 0))  # compile (every step idle: nothing is computed)
     compile_time = time.perf_counter() - t_compile
 
@@ -192,6 +293,7 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
                dynamic_ncols=True)
     try:
         while completed < target:
+            check_stop()                       # a Ctrl-C: stop here, with every generation so far written
             n_valid = min(chunk, target - completed)
             t0 = time.perf_counter()
             state1, rows = call(state1, completed, completed + n_valid)
@@ -222,7 +324,8 @@ def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, 
             completed += n_valid
             evals += n_valid * algo.population
             elapsed = time.perf_counter() - t_start
-            bar.set_postfix(best=f"{info['best']:.4g}", mean=f"{info['mean']:.4g}",
+            bar.set_postfix(gen_best=f"{info['best']:.4g}", gen_mean=f"{info['mean']:.4g}",
+                            best_so_far=f"{info['best_so_far']:.4g}",
                             evals_s=f"{evals / max(elapsed, 1e-9):.3g}", refresh=False)
             bar.update(n_valid)
             if callback is not None:

@@ -42,6 +42,7 @@ rows whose ``completed`` was not yet set.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 import os
@@ -123,6 +124,27 @@ def create_run(path: str | os.PathLike[str], *, kind: str, config: Mapping[str, 
         os.makedirs(d, exist_ok=True)
     n, g = int(population), int(problem.n_genes)
     tmp = p + ".tmp"
+    try:
+        _create(tmp, kind=kind, config=config, problem=problem, n=n, g=g, generations=generations,
+                metrics=metrics, state=state)
+        os.replace(tmp, p)
+    except OSError as e:
+        with contextlib.suppress(OSError):
+            os.remove(tmp)
+        raise ResultsError(f"{p}: cannot write the run file ({_reason(e)})") from None
+
+
+def _reason(e: BaseException) -> str:
+    """h5py's message without its boilerplate (``Unable to synchronously open file (...)``)."""
+    text = str(e).strip()
+    if "(" in text and text.endswith(")"):
+        text = text[text.index("(") + 1:-1]
+    return text or type(e).__name__
+
+
+def _create(tmp: str, *, kind: str, config: Mapping[str, Any], problem, n: int, g: int, generations: int,
+            metrics: Mapping[str, tuple[tuple[int, ...], Any]], state: Mapping[str, tuple[tuple[int, ...], Any]]
+            ) -> None:
     with h5py.File(tmp, "w") as f:
         a = f.attrs
         a["format"], a["format_version"], a["kind"] = FORMAT, FORMAT_VERSION, kind
@@ -154,7 +176,6 @@ def create_run(path: str | os.PathLike[str], *, kind: str, config: Mapping[str, 
             make(f"metrics/{name}", tuple(shape), dtype)
         for name, (shape, dtype) in state.items():
             make(f"state/{name}", tuple(shape), dtype)
-    os.replace(tmp, p)
 
 
 class RunWriter:
@@ -170,7 +191,7 @@ class RunWriter:
         self.f: h5py.File | None = None
 
     def __enter__(self) -> RunWriter:
-        self.f = h5py.File(self.path, "a")
+        self.f = _open(self.path, "a")
         _truncate(self.f, int(self.f.attrs["completed"]))
         return self
 
@@ -257,6 +278,8 @@ class Run:
 
     def best(self) -> tuple[int, int, float, np.ndarray]:
         """(generation, index, fitness, genome) of the best valid individual of the whole run."""
+        if self.completed == 0 or self.fitness.shape[0] == 0:
+            raise ResultsError(f"{self.path}: no generations in the file")
         v = self.valid_fitness()
         if v.size == 0 or not np.any(np.isfinite(v)):
             raise ResultsError(f"{self.path}: no valid (finite, not diverged) individual")
@@ -281,42 +304,95 @@ def _decode(v: Any) -> Any:
     return v
 
 
+NOT_A_RUN = "is not a readable cpgjax run"
+
+
+def _open(path: str | os.PathLike[str], mode: str = "r") -> h5py.File:
+    """Open a run file; what h5py raises becomes a :class:`ResultsError` that names the file and what to do."""
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise ResultsError(f"{p}: no such file")
+    if os.path.isdir(p):
+        raise ResultsError(f"{p}: is a folder, not a run file (.h5)")
+    try:
+        if mode == "r":
+            return h5py.File(p, "r", locking=False)
+        return h5py.File(p, mode)
+    except PermissionError:
+        raise ResultsError(f"{p}: cannot {'read' if mode == 'r' else 'write'}: permission denied") from None
+    except OSError as e:
+        raise ResultsError(f"{p}: {NOT_A_RUN} (HDF5: {_reason(e)}); start anew with --overwrite, "
+                           "or name another file") from None
+
+
 def read_attrs(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The root attributes of a run file (no datasets)."""
-    with h5py.File(os.fspath(path), "r", locking=False) as f:
+    with _open(path) as f:
         _check(f, path)
         return {k: _decode(v) for k, v in f.attrs.items()}
 
 
 def _check(f: h5py.File, path: Any) -> None:
     if f.attrs.get("format") != FORMAT:
-        raise ResultsError(f"{os.fspath(path)} is not a cpgjax run file")
+        raise ResultsError(f"{os.fspath(path)} {NOT_A_RUN}: it is an HDF5 file without the attribute "
+                           f"format = {FORMAT!r}; start anew with --overwrite, or name another file")
+    missing = [k for k in ("kind", "config", "completed", "population", "n_genes") if k not in f.attrs]
+    if missing:
+        raise ResultsError(f"{os.fspath(path)} {NOT_A_RUN}: attributes {', '.join(missing)} are missing; "
+                           "start anew with --overwrite")
+
+
+def _unreadable(p: str, what: str, e: BaseException, last_ok: int | None = None) -> ResultsError:
+    hint = (f"the last readable generation is {last_ok - 1}" if last_ok else "no generation can be read")
+    return ResultsError(f"{p}: {what} cannot be read (HDF5: {_reason(e)}); {hint}; start anew with --overwrite")
 
 
 def read_run(path: str | os.PathLike[str]) -> Run:
     """Read a run file (safe on a file another process is writing: opened without locking)."""
     p = os.fspath(path)
-    with h5py.File(p, "r", locking=False) as f:
+    with _open(p) as f:
         _check(f, p)
         attrs = {k: _decode(v) for k, v in f.attrs.items()}
         n = int(attrs["completed"])
 
         def rows(name: str) -> np.ndarray:
-            return np.asarray(f[name][:n])
+            try:
+                return np.asarray(f[name][:n])
+            except (OSError, KeyError, ValueError) as e:
+                raise _unreadable(p, f"/{name}", e, _last_readable(f, name, n)) from None
 
         group = lambda g: {k: rows(f"{g}/{k}") for k in f[g]} if g in f else {}  # noqa: E731
-        return Run(path=p, attrs=attrs, config=json.loads(attrs["config"]), meta=json.loads(attrs["meta"]),
+        try:
+            config, meta = json.loads(attrs["config"]), json.loads(attrs.get("meta") or "{}")
+        except ValueError:
+            raise ResultsError(f"{p} {NOT_A_RUN}: its config or meta attribute is not JSON") from None
+        return Run(path=p, attrs=attrs, config=config, meta=meta,
                    genomes=rows("genomes"), fitness=rows("fitness"), diverged=rows("diverged"),
                    n_diverged=rows("n_diverged"), mutation_rate=rows("mutation_rate"),
                    wall_time=rows("wall_time"), metrics=group("metrics"), state=group("state"))
 
 
+def _last_readable(f: h5py.File, name: str, n: int) -> int:
+    """How many leading rows of ``f[name]`` can be read (a damaged file: up to where it is intact)."""
+    for i in range(n - 1, -1, -1):
+        try:
+            np.asarray(f[name][i])
+            return i + 1
+        except (OSError, KeyError, ValueError):
+            continue
+    return 0
+
+
 def read_resume_point(path: str | os.PathLike[str]) -> tuple[int, dict[str, np.ndarray], float]:
     """(completed generations, the state after the last one, its wall time) for ``--resume``."""
-    with h5py.File(os.fspath(path), "r") as f:
-        _check(f, path)
+    p = os.fspath(path)
+    with _open(p) as f:
+        _check(f, p)
         n = int(f.attrs["completed"])
         if n == 0:
             return 0, {}, 0.0
-        state = {k: np.asarray(f[f"state/{k}"][n - 1]) for k in f["state"]} if "state" in f else {}
-        return n, state, float(f["wall_time"][n - 1])
+        try:
+            state = {k: np.asarray(f[f"state/{k}"][n - 1]) for k in f["state"]} if "state" in f else {}
+            return n, state, float(f["wall_time"][n - 1])
+        except (OSError, KeyError, ValueError) as e:
+            raise _unreadable(p, f"generation {n - 1}", e, _last_readable(f, "wall_time", n)) from None

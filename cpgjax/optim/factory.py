@@ -23,16 +23,26 @@ from cpgjax.io.wl import load_model
 from cpgjax.optim.analytic import analytic_problem
 from cpgjax.optim.problem import Problem
 
+EVALUATIONS = ("thesis", "robust")
+
 
 def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float | None = None, replicas: int | None = None, chunk: int | None = None,
-                 robust: Perturbations | None = None) -> Problem:
+                 evaluation: str | None = None, perturb: dict | None = None) -> Problem:
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
 
     ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
     is the simulator's chunk (results do not depend on it; a sweep picks one that pads its batch little).
-    ``robust``: the robust evaluation (:mod:`cpgjax.episode.perturb`) instead of the thesis's single episode.
+    ``evaluation``: ``"thesis"`` (default: one exact episode, eq. 4.6) or ``"robust"`` (the mean of
+    several episodes with fresh perturbations each generation, :mod:`cpgjax.episode.perturb`, whose
+    ranges ``perturb`` overrides, e.g. ``{"replicas": 8}``).
     """
+    evaluation = evaluation or "thesis"
+    if evaluation not in EVALUATIONS:
+        raise ValueError(f"evaluation must be one of {', '.join(EVALUATIONS)}, got {evaluation!r}")
+    if perturb and evaluation != "robust":
+        raise ValueError("perturbation ranges apply to the robust evaluation only (add --evaluation robust)")
+    robust = Perturbations(**(perturb or {})) if evaluation == "robust" else None
     if model.startswith("analytic:"):
         problem = analytic_problem(model)
     else:
@@ -43,8 +53,8 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
         problem = wl_problem(model, **kw)
     if robust is not None and model.startswith("analytic:"):
         raise ValueError(f"{model}: the robust evaluation needs a simulated model (.wl)")
-    cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas,
-           "robust": robust.to_dict() if robust is not None else None}
+    cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas, "evaluation": evaluation,
+           "perturb": perturb or None}
     return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
 
 

@@ -32,6 +32,16 @@ def accelerations(model, R, w, force, torque, mass_scale=None):
     return a * free, matvec(R, alpha_b) * free
 
 
+def force_accelerations(model, R, force, torque, mass_scale=None):
+    """Accelerations [3, nb, B] from extra forces and torques alone (no gravity, no gyroscopic term)."""
+    free = (~model.fixed).astype(float)[:, None]
+    m = model.mass[:, None] if mass_scale is None else model.mass[:, None] * mass_scale
+    alpha_b = matvec(model.inv_inertia[:, :, :, None], matTvec(R, torque))
+    if mass_scale is not None:
+        alpha_b = alpha_b / mass_scale
+    return force / m * free, matvec(R, alpha_b) * free
+
+
 def integrate(state, a, alpha, dt):
     """Semi-implicit Euler: v, w first, then x, q with the new velocities."""
     v = state.v + dt * a

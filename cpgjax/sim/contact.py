@@ -1,68 +1,147 @@
-"""Ground contact at the contact vertices (eq. 3.7, Appendix B).
+"""Ground contact at the contact vertices (eq. 3.7, Appendix B), solved implicitly on the whole step.
 
-Normal reaction ``f_r = A d - B v_n`` for a vertex at depth ``d`` below the terrain
-(A = 1e5 kg/s^2, B = 1e3 kg/s in the thesis), never pulling.  The damper is integrated
-implicitly per vertex with a conservative effective mass (see `joints`), so the
-resting penetration is exactly ``m g / (A * contacts)``.
+Normal reaction ``f_r = A d - B v_n`` for a vertex at depth ``d`` below the terrain (A = 1e5 kg/s^2,
+B = 1e3 kg/s in the thesis), never pulling.  Friction (Appendix B's static and dynamic branches) is a
+regularised Coulomb law with a soft bristle: ``f_t = -k_t z - b_t v_t`` while within ``mu_s f_r``
+(``z``: the vertex's tangential displacement since it stuck); beyond it the vertex slides with
+``mu_d f_r`` against its motion and the bristle's anchor trails it.
 
-Friction (Appendix B has a static and a dynamic branch) is a stick-slip penalty:
-each vertex in contact is tied to an anchor on the ground by a tangential spring
-``k_t`` with damper ``b_t`` (static friction: the vertex sticks while that force is
-within ``mu_s f_r``); beyond it the vertex slides with ``mu_d f_r`` and its anchor is
-dragged along so that the spring holds exactly that force (dynamic friction).  A
-vertex out of contact carries its anchor with it.  Unlike a velocity-only friction,
-the sticking force does not depend on the step.
+Why this and not a stick-slip spring (docs/simulator.md has the measurements): with the thesis's
+stiff stick-slip anchor, a walking robot's score was chaotic (gene jitter of 1e-6 moved the trot's
+fitness by sd 0.009; MuJoCo, 0.0003), because a foot's friction and damping were integrated against
+the inertia of its own light link only.  Here every other force on the bodies (pivot springs,
+servos, gravity) is applied first; each touching vertex's end-of-step velocity ``v*`` is predicted
+from its body's accelerations, so the push of the whole robot through its joints is in it; and the
+contact force is solved implicitly against that prediction with the vertex's own inverse-mass
+matrix ``K = I/m + [r]x^T I^-1 [r]x`` (static in the body frame, :func:`contact_inverse_mass`; shared
+among the body's touching vertices): the normal damper and the friction then act in full whatever
+the step.  The resting penetration stays exactly ``m g / (A contacts)``: the force carried over from
+the previous step is predicted with the translational inverse mass (which the body's touching
+vertices share exactly), its change with the full directional one (see :func:`contact_forces`).
 """
 
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 
-from cpgjax.sim.rotation import dot
+from cpgjax.sim.rotation import cross, dot, matTvec
 from cpgjax.sim.terrain import height_and_normal
 
-FRICTION_K = 1.0e5  # N/m    tangential (stiction) spring, as stiff as the ground (A)
-FRICTION_B = 1.0e3  # N s/m  its damper, as the ground's (B)
+FRICTION_K = 1.0e3  # N/m    bristle spring: static friction holds (no viscous creep)
+FRICTION_B = 300.0  # N s/m  viscous friction below the Coulomb cap (implicit)
 
 
-def contact_forces(model, p, pv, anchor, var=None):
-    """Force [3, nc, B] at each contact vertex, its depth [nc, B] and the new anchors [3, nc, B].
+def contact_body_ranges(model) -> list[tuple[int, int, int]]:
+    """``(body, lo, hi)`` for each body with contacts: contacts ``lo:hi`` belong to it (contiguous)."""
+    cb = model.pt_body[model.ct_pt]
+    out = []
+    for b in range(model.nb):
+        idx = np.nonzero(cb == b)[0]
+        if len(idx):
+            assert (np.diff(idx) == 1).all(), "contacts are sorted by body (sim.model)"
+            out.append((b, int(idx[0]), int(idx[-1]) + 1))
+    return out
 
-    ``var`` (a :class:`~cpgjax.sim.variation.Variation`) scales the friction coefficients and shifts the
-    terrain lookup per robot; ``None`` is the nominal robot.
+
+def contact_inverse_mass(model) -> np.ndarray:
+    """[3, 3, nc] each contact vertex's inverse-mass matrix in its body's frame (zero on a fixed body).
+
+    ``K_b = I/m + [r]x^T I^-1 [r]x`` (r: the vertex from the CM): a force f at the vertex changes its
+    velocity by ``dt R K_b R^T f``.
     """
-    cp, cv = p[:, model.ct_pt], pv[:, model.ct_pt]
+    cb = model.pt_body[model.ct_pt]
+    out = np.zeros((3, 3, len(cb)))
+    for k, b in enumerate(cb):
+        if model.fixed[b]:
+            continue
+        r = model.pt_local[:, model.ct_pt[k]]
+        X = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+        out[:, :, k] = np.eye(3) / model.mass[b] + X.T @ model.inv_inertia[:, :, b] @ X
+    return out
+
+
+def _quad(K, u, v):
+    """``u^T K v`` for a static K [3, 3, nc, 1] and u, v [3, nc, B]."""
+    return sum(K[i, j] * u[i] * v[j] for i in range(3) for j in range(3))
+
+
+def _frame(model, cp, var):
+    """Depth [nc, B], normal and two tangents [3, nc, B] of the terrain under the contact vertices."""
     if model.terrain.flat:  # fast path: z_g = 0, n = (0, 0, 1), no lookup
         zero = jnp.zeros_like(cp[2])
-        n = jnp.stack([zero, zero, zero + 1.0])
-        depth = -cp[2]
-    else:
-        sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
-        zg, n = height_and_normal(model.terrain, cp[0] + sx, cp[1] + sy)
-        n = jnp.stack(n)
-        depth = (zg - cp[2]) * n[2]
-    vn = dot(cv, n)
-    inv_m = model.ct_inv_meff[:, None]
+        one = zero + 1.0
+        return -cp[2], jnp.stack([zero, zero, one]), jnp.stack([one, zero, zero]), jnp.stack([zero, one, zero])
+    sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
+    zg, n = height_and_normal(model.terrain, cp[0] + sx, cp[1] + sy)
+    n = jnp.stack(n)
+    inv = 1.0 / jnp.sqrt(n[0] ** 2 + n[2] ** 2)
+    t1 = jnp.stack([n[2] * inv, jnp.zeros_like(zg), -n[0] * inv])
+    return (zg - cp[2]) * n[2], n, t1, cross(n, t1)
+
+
+def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
+    """Contact forces [3, nc, B], depths [nc, B], new anchors [3, nc, B] and normal forces [nc, B].
+
+    ``a``, ``alpha`` [3, nb, B]: the bodies' accelerations under every force but the contacts;
+    ``f_prev`` [nc, B]: each vertex's normal force of the previous step; ``var``: an optional
+    per-robot :class:`~cpgjax.sim.variation.Variation` (friction and mass scales, terrain shift).
+
+    Normal (implicit damper on the predicted velocity ``v' = v* + dt k_n f``, the spring explicit):
+    ``f = A d - B v'``, with the part of ``f`` carried over from the previous step predicted at the
+    translational inverse mass ``k_t = share/m`` and its change at the full ``k_n = share n^T K n``:
+    ``v' = v* + dt (k_t f_prev + k_n (f - f_prev))``.  At rest ``v' = 0`` and ``f = f_prev``, so
+    ``f = A d`` exactly; in motion the damper acts against the vertex's whole response.
+    Friction: ``f_t = -k_t z' - b_t v'_t`` with ``z' = z + dt v'_t`` and ``v'_t = v*_t + dt K_t f_t``
+    (2x2), solved in closed form, then capped by ``mu_s f`` (sliding: ``mu_d f`` against the motion).
+    """
     dt = model.dt
-    B_eff = model.ground_B / (1.0 + dt * model.ground_B * inv_m)
+    cb = model.pt_body[model.ct_pt]
+    cp, rc = p[:, model.ct_pt], r[:, model.ct_pt]
+    if len(cb) == 0:                             # a model without contact vertices
+        return cp, cp[0], anchor, f_prev
+    depth, n, t1, t2 = _frame(model, cp, var)
     touch = depth > 0
-    fn = jnp.where(touch, jnp.maximum(model.ground_A * depth - B_eff * vn, 0.0), 0.0)
-    # stick-slip friction
-    d = cp - anchor
-    d = d - dot(d, n) * n
-    vt = cv - vn * n
-    bt_eff = FRICTION_B / (1.0 + dt * FRICTION_B * inv_m)
-    f_spring = -FRICTION_K * d - bt_eff * vt
-    mag = jnp.sqrt(dot(f_spring, f_spring) + 1e-12)
+    tf = touch.astype(depth.dtype)
+    share = []                                  # touching vertices of the vertex's body (>= 1)
+    for _, lo, hi in contact_body_ranges(model):
+        c = tf[lo:hi].sum(0) if hi - lo > 1 else tf[lo]
+        share.append(jnp.broadcast_to(jnp.maximum(c, 1.0), (hi - lo,) + c.shape))
+    share = jnp.concatenate(share, 0)
+    inv_m = np.where(model.fixed[cb], 0.0, 1.0 / model.mass[cb])[:, None]
+    if var is not None:                          # a body s times as heavy: K / s
+        share = share / var.mass[cb]
+    K = contact_inverse_mass(model)[:, :, :, None]
+    Rc = R[:, :, cb]
+    nb_, t1b, t2b = matTvec(Rc, n), matTvec(Rc, t1), matTvec(Rc, t2)
+    vstar = pv[:, model.ct_pt] + dt * (a[:, cb] + cross(alpha[:, cb], rc))
+    # normal
+    kn = share * _quad(K, nb_, nb_)
+    A, B = model.ground_A, model.ground_B
+    fa = A * depth
+    vn = dot(vstar, n) + dt * kn * fa + dt * (share * inv_m - kn) * f_prev
+    fn = jnp.where(touch, jnp.maximum(fa - B * vn / (1.0 + dt * B * kn), 0.0), 0.0)
+    # friction: f = -(K + I/(dt b'))^-1 (v* + k z / b') / dt,  b' = b + k dt (the bristle implicit too)
+    z = cp - anchor
+    bp = FRICTION_B + FRICTION_K * dt
+    w = vstar + (FRICTION_K / bp) * z
+    s1, s2 = dot(w, t1), dot(w, t2)
+    reg = 1.0 / (dt * bp)
+    k11 = share * _quad(K, t1b, t1b) + reg
+    k12 = share * _quad(K, t1b, t2b)
+    k22 = share * _quad(K, t2b, t2b) + reg
+    g = -1.0 / (dt * (k11 * k22 - k12 * k12))
+    f1 = g * (k22 * s1 - k12 * s2)
+    f2 = g * (k11 * s2 - k12 * s1)
     mu_s, mu_d = model.mu_static, model.mu_dynamic
     if var is not None:
         mu_s, mu_d = mu_s * var.friction, mu_d * var.friction
-    slide = mag > mu_s * fn
-    f_slide = mu_d * fn
-    ft = jnp.where(slide, f_spring * (f_slide / mag), f_spring)
-    # sliding: the anchor trails the vertex so that the spring alone holds mu_d f_r
-    d_mag = jnp.sqrt(dot(d, d) + 1e-18)
-    d_new = d * jnp.minimum(1.0, f_slide / (FRICTION_K * d_mag))
-    new_anchor = jnp.where(touch, jnp.where(slide, cp - d_new, anchor), cp)
-    ft = jnp.where(touch, ft, 0.0)
-    return fn * n + ft, depth, new_anchor
+    stick = jnp.sqrt(f1 * f1 + f2 * f2) <= mu_s * fn
+    vmag = jnp.sqrt(s1 * s1 + s2 * s2 + 1e-20)
+    ft = jnp.where(stick, f1 * t1 + f2 * t2, -(mu_d * fn / vmag) * (s1 * t1 + s2 * t2))
+    # the anchor: fixed while sticking; sliding, it trails the vertex so the bristle holds at most mu_d f
+    zt = z - dot(z, n) * n
+    zmag = jnp.sqrt(dot(zt, zt) + 1e-18)
+    lim = mu_d * fn / FRICTION_K
+    new_anchor = jnp.where(touch, jnp.where(stick, anchor, cp - zt * jnp.minimum(1.0, lim / zmag)), cp)
+    return jnp.where(touch, fn * n + ft, 0.0), depth, new_anchor, fn

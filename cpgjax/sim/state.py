@@ -17,6 +17,7 @@ class State(NamedTuple):
     v: [3, nb, B] CM velocities; w: [3, nb, B] angular velocities (world frame);
     e_int: [nctrl, B] integral of the servo error;
     anchor: [3, nc, B] static-friction anchor of each contact vertex (its position when not in contact);
+    f_n: [nc, B] each contact vertex's normal force of the last step (see `contact`);
     n: [] int32 steps taken: the simulated time is ``n * dt`` (:func:`sim_time`), never a running
     float sum of ``dt`` (which drifts: 6.000610 s after 6 s in float32).
     """
@@ -27,6 +28,7 @@ class State(NamedTuple):
     w: jnp.ndarray
     e_int: jnp.ndarray
     anchor: jnp.ndarray
+    f_n: jnp.ndarray
     n: jnp.ndarray
 
 
@@ -50,7 +52,7 @@ def initial_state(model, batch: int = 1, dtype=jnp.float32) -> State:
     return State(
         x=tile(model.x0), q=tile(model.q0), anchor=tile(anchors), v=jnp.zeros((3, nb, batch), dtype),
         w=jnp.zeros((3, nb, batch), dtype), e_int=jnp.zeros((model.n_ctrl, batch), dtype),
-        n=jnp.zeros((), jnp.int32),
+        f_n=jnp.zeros((len(model.ct_pt), batch), dtype), n=jnp.zeros((), jnp.int32),
     )
 
 

@@ -1,8 +1,9 @@
 """One simulation step of a batch of robots: ``step(model, state, ctrl) -> state`` (Ch. 3.4.1).
 
 The stages follow the thesis's dynamics engine (Ch. 3.4.1, Appendix B): pivot positions
-and velocities, joint penalties, servo torques, ground collisions, gravity, then
-integration.  All arrays are batch-last (see `cpgjax.sim.state`): the same code runs
+and velocities, joint penalties, servo torques, gravity; then the ground collisions, solved
+against the velocities all those forces would give (see `contact`); then integration.
+All arrays are batch-last (see `cpgjax.sim.state`): the same code runs
 one robot (B = 1) or thousands.
 """
 
@@ -11,8 +12,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.bodies import accelerations, integrate
-from cpgjax.sim.contact import contact_forces
+from cpgjax.sim.bodies import accelerations, force_accelerations, integrate
+from cpgjax.sim.contact import contact_body_ranges, contact_forces
 from cpgjax.sim.joints import joint_angles, limit_torques, pivot_spring_forces
 from cpgjax.sim.rotation import cross, matvec, quat_to_mat
 from cpgjax.sim.servo import servo_torques
@@ -44,21 +45,34 @@ def sum_onto_bodies(model, f_pt, torque_joint):
     return jnp.stack(out, 1)
 
 
+def sum_contacts_onto_bodies(model, f, r):
+    """Contact forces [3, nc, B] at offsets r [3, nc, B] summed onto bodies: force, torque [3, nb, B]."""
+    tq = cross(r, f)
+    zero = jnp.zeros((3, f.shape[-1]), f.dtype)
+    ranges = {b: (lo, hi) for b, lo, hi in contact_body_ranges(model)}
+    F, T = [], []
+    for b in range(model.nb):
+        lo, hi = ranges.get(b, (0, 0))
+        F.append(f[:, lo:hi].sum(1) if hi > lo else zero)
+        T.append(tq[:, lo:hi].sum(1) if hi > lo else zero)
+    return jnp.stack(F, 1), jnp.stack(T, 1)
+
+
 def forces(model, state, ctrl, var=None):
-    """Total force and torque on every body [3, nb, B], plus diagnostics."""
+    """Force and torque on every body [3, nb, B] from everything but the ground, plus what the contacts need."""
     target, target_rate = ctrl
     R = quat_to_mat(state.q)
     r, p, pv = point_kinematics(model, state, R)
     fs = pivot_spring_forces(model, p, pv)
-    fc, depth, anchor = contact_forces(model, p, pv, state.anchor, var)
-    f_pt = jnp.concatenate([fs, -fs, fc], 1)[:, model.pt_src]
+    no_contact = jnp.zeros((3, len(model.ct_pt), fs.shape[-1]), fs.dtype)
+    f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.pt_src]
     angle, rate, axis = joint_angles(model, R, state.w)
     tau_servo, err = servo_torques(model, angle, rate, target, target_rate, state.e_int,
                                    None if var is None else var.gain)
     tau = tau_servo + limit_torques(model, angle, rate)
     force = sum_onto_bodies(model, f_pt, None)
     torque = sum_onto_bodies(model, cross(r, f_pt), tau * axis)
-    return R, force, torque, err, anchor
+    return R, r, p, pv, force, torque, err
 
 
 def step(model, state, ctrl, var=None):
@@ -66,7 +80,10 @@ def step(model, state, ctrl, var=None):
 
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (``None``: the nominal robot).
     """
-    R, force, torque, err, anchor = forces(model, state, ctrl, var)
-    a, alpha = accelerations(model, R, state.w, force, torque, None if var is None else var.mass)
-    new = integrate(state, a, alpha, model.dt)
-    return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, n=state.n + 1)
+    scale = None if var is None else var.mass
+    R, r, p, pv, force, torque, err = forces(model, state, ctrl, var)
+    a, alpha = accelerations(model, R, state.w, force, torque, scale)
+    fc, _, anchor, f_n = contact_forces(model, R, r, p, pv, a, alpha, state.anchor, state.f_n, var)
+    ac, alc = force_accelerations(model, R, *sum_contacts_onto_bodies(model, fc, r[:, model.ct_pt]), scale)
+    new = integrate(state, a + ac, alpha + alc, model.dt)
+    return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, f_n=f_n, n=state.n + 1)

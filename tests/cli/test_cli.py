@@ -18,7 +18,8 @@ def test_simulate_trot_prints_the_metrics_and_writes_thesis_logs(tmp_path, capsy
     assert lines[0] == "# Log file for compound Body"
     assert lines[1] == "# quadruped.wl quadruped-trot.ctl"
     rows = read_log(log)
-    assert rows.shape == (40, 7)  # LogRate 20 for 2 s: T X Y Z theta phi psi
+    assert rows.shape == (41, 7)  # LogRate 20 for 2 s, from t = 0: T X Y Z theta phi psi
+    assert rows[0, 0] == 0.0 and rows[-1, 0] == 2.0
     np.testing.assert_allclose(np.diff(rows[:, 0]), 0.05, atol=1e-4)
 
 

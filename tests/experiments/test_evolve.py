@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import os
 import signal
 import subprocess
@@ -14,7 +13,7 @@ import numpy as np
 import pytest
 from runcases import same_rows
 
-from cpgjax.cli import evolve as cli_evolve
+from cpgjax.cli import main
 from cpgjax.experiments.evolve import run_ga
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.results import ResultsError, read_run
@@ -123,10 +122,7 @@ def test_sigkill_mid_run_leaves_a_readable_file_that_resumes_to_the_same_result(
 
 
 def cli(*argv: str) -> int:
-    p = argparse.ArgumentParser(prog="cpgjax")
-    cli_evolve.register(p.add_subparsers(required=True))
-    args = p.parse_args(list(argv))
-    return args.func(args)
+    return main(list(argv))
 
 
 def test_cli_evolve_resume_best_search_plot(tmp_path, monkeypatch, capsys):
@@ -134,12 +130,12 @@ def test_cli_evolve_resume_best_search_plot(tmp_path, monkeypatch, capsys):
     m = "analytic:sphere:10"
     assert cli("evolve", m, "--generations", "6", "--pocket", "2", "--chunk", "3", "--out", "r.h5",
                "--quiet") == 0
-    assert cli("evolve", m, "--generations", "6", "--out", "r.h5", "--quiet") == 1
+    assert cli("evolve", m, "--generations", "6", "--out", "r.h5", "--quiet") == 2
     assert "--resume" in capsys.readouterr().err
     assert cli("evolve", m, "--generations", "9", "--out", "r.h5", "--resume", "--quiet") == 0
     run = read_run("r.h5")
     assert run.completed == 9 and run.config["pocket"] == 2 and run.config["chunk"] == 3
-    assert cli("evolve", m, "--pocket", "3", "--out", "r.h5", "--resume", "--quiet") == 1
+    assert cli("evolve", m, "--pocket", "3", "--out", "r.h5", "--resume", "--quiet") == 2
     assert "pocket" in capsys.readouterr().err
 
     assert cli("best", "r.h5", "--ctl", "best.ctl") == 0
@@ -156,4 +152,4 @@ def test_cli_evolve_resume_best_search_plot(tmp_path, monkeypatch, capsys):
     assert os.path.getsize("fig.png") > 10_000
     assert cli("evolve", m, "--generations", "3", "--out", "r.h5", "--overwrite", "--quiet") == 0
     assert read_run("r.h5").completed == 3
-    assert cli("evolve", "analytic:nope:3", "--quiet") == 1
+    assert cli("evolve", "analytic:nope:3", "--quiet") == 2

@@ -8,6 +8,7 @@ import os
 import shutil
 
 import h5py
+import jax
 import numpy as np
 import pytest
 from runcases import same_rows
@@ -111,7 +112,7 @@ def test_mismatching_settings_are_refused(tmp_path):
         cfg["init_spread"] = 0.3
         f.attrs["config"] = json.dumps(cfg)
     assert cli.main(["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "1",
-                     "--out", out, "--quiet"]) == 1
+                     "--out", out, "--quiet"]) == 2
     with pytest.raises(ResultsError):
         sweep.run_sweep(sweep.sweep_problem({"model": "analytic:sphere:10"}),
                         sweep.plan(out, sweep.ga_grid(population=(4,), generations=2), [0]), progress=False)
@@ -217,13 +218,30 @@ def test_sweep_killed_mid_run_resumes_to_the_uninterrupted_result(tmp_path):
 
 def test_bad_arguments_are_named(tmp_path, capsys):
     out = str(tmp_path / "s")
-    with pytest.raises(SystemExit):
-        cli.main(["sweep", WL, "--gamma", "0,x", "--out", out])
+    assert cli.main(["sweep", WL, "--gamma", "0,x", "--out", out]) == 2
     assert "'x' in '0,x'" in capsys.readouterr().err
-    assert cli.main(["sweep", WL, "--preset", "tiny", "--pocket", "0,4", "--out", out]) == 1
+    assert cli.main(["sweep", WL, "--preset", "tiny", "--pocket", "0,4", "--out", out]) == 2
     assert "drop --pocket" in capsys.readouterr().err
-    assert cli.main(["sweep", WL, "--pocket", "0,30", "--out", out, "--dry-run"]) == 1
+    assert cli.main(["sweep", WL, "--pocket", "0,30", "--out", out, "--dry-run"]) == 2
     assert "pocket must be in [0, population]" in capsys.readouterr().err
     assert cli.main(["sweep", WL, "--preset", "tiny", "--out", out, "--dry-run"]) == 0
     assert "18 runs" in capsys.readouterr().out
     assert not os.path.exists(out)                      # a dry run writes nothing
+
+
+def test_resume_with_another_episode_length_is_refused(tmp_path):
+    """A sweep's runs are resumed through open_run: a different --time is refused before anything is computed."""
+    from cpgjax.experiments.evolve import open_run, run_keys
+    from cpgjax.optim.algorithm import make_algorithm
+
+    out = str(tmp_path / "s")
+    specs = sweep.plan(out, sweep.ga_grid(population=(4,), generations=2), [0])
+    made = sweep.sweep_problem({"model": WL, "time": 0.3})
+    for sp in specs:                                   # the files as a sweep at 0.3 s leaves them (no generation yet)
+        algo = make_algorithm(made, sp.cfg)
+        open_run(made, algo, sp.path, jax.tree.map(jax.numpy.asarray, algo.params), run_keys(sp.seed)[0],
+                 resume=False, overwrite=False, metrics={})
+    before = open(specs[0].path, "rb").read()
+    with pytest.raises(ResultsError, match=r"cannot resume: --time 0.5 differs from the run's 0.3 s"):
+        sweep.run_sweep(sweep.sweep_problem({"model": WL, "time": 0.5}), specs, progress=False)
+    assert open(specs[0].path, "rb").read() == before

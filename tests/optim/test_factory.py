@@ -17,7 +17,7 @@ P = Perturbations(replicas=3)
 
 @pytest.fixture(scope="module")
 def robust():
-    p = make_problem(WL, time=0.3, robust=P)
+    p = make_problem(WL, time=0.3, evaluation="robust", perturb={"replicas": 3})
     return p, jax.jit(p.evaluate)
 
 
@@ -78,4 +78,6 @@ def test_perturbation_ranges_are_checked():
     with pytest.raises(ValueError, match="replicas"):
         Perturbations(replicas=0)
     with pytest.raises(ValueError, match="needs a simulated model"):
-        make_problem("analytic:sphere:10", robust=P)
+        make_problem("analytic:sphere:10", evaluation="robust")
+    with pytest.raises(ValueError, match="robust evaluation only"):
+        make_problem(WL, perturb={"replicas": 2})

@@ -41,7 +41,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.experiments.evolve import compile_ahead, metrics_spec, open_run, run_keys
+from cpgjax.experiments.evolve import (
+    check_stop,
+    compile_ahead,
+    deferred_sigint,
+    metrics_spec,
+    open_run,
+    run_keys,
+    stop_requested,
+)
 from cpgjax.experiments.sweep.plan import MANIFEST, RunSpec
 from cpgjax.io.results import Row, RunWriter
 from cpgjax.optim.algorithm import make_algorithm, make_chunk_fn, stack_params
@@ -91,8 +99,17 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
 
     ``group``: ``"all"`` puts every run in one XLA program (one evaluate call per generation);
     ``"kind"`` makes one program per group of same-shaped runs, run one after the other.
-    ``stop_after``: stop after that many sweep generations (tests of resume).
+    ``stop_after``: stop after that many sweep generations (tests of resume).  A Ctrl-C stops after
+    the chunk in flight, once every computed generation is written (``KeyboardInterrupt``).
     """
+    with deferred_sigint():
+        return _run_sweep(problem, specs, chunk=chunk, overwrite=overwrite, progress=progress,
+                          stop_after=stop_after, group=group, callback=callback)
+
+
+def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwrite: bool, progress: bool,
+               stop_after: int | None, group: str, callback: Callable[[int, dict[str, Any]], None] | None
+               ) -> dict[str, Any]:
     from tqdm.auto import tqdm
 
     t_begin = time.perf_counter()
@@ -152,6 +169,7 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
             sizes = [len(g["specs"]) for g in groups]
             fn = make_chunk_fn(problem, algos, sizes, chunk)
             args = partial(_chunk_args, groups)
+            check_stop()
             t0 = time.perf_counter()
             fn = compile_ahead(fn, args())
             compile_time += time.perf_counter() - t0
@@ -161,7 +179,7 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
             first = None                                   # (wall, cpu, evaluations) at the end of chunk 1
             new_evals = 0
             while any(np.any(g["completed"] < g["targets"]) for g in groups):
-                if stop_after is not None and steps >= stop_after:
+                if (stop_after is not None and steps >= stop_after) or stop_requested():
                     break
                 gen0 = [g["completed"].copy() for g in groups]
                 out = fn(*args())                          # dispatched asynchronously
@@ -186,6 +204,7 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
                     callback(steps, {"evaluations": evals_done})
             if pending is not None:
                 evals_done += _write(pending, t_start)
+            check_stop()                                   # a Ctrl-C: every computed generation is written
             if first is not None and steps > 1:
                 steady["wall"] += time.perf_counter() - first[0]
                 steady["cpu"] += time.process_time() - first[1]
@@ -231,10 +250,14 @@ def _write(pending, t_start: float) -> int:
 
 
 def sweep_problem(problem_args: dict[str, Any], batch: int | None = None) -> Problem:
-    """The Problem of a sweep (``{"model", "time", "terrain", "delta"}``) from the one factory.
+    """The Problem of a sweep (``{"model", "time", "terrain", "delta", "evaluation", "perturb"}``) from the one factory.
 
     ``batch``: the sweep's evaluations per generation; the simulator's chunk is chosen to pad it
-    little (results do not depend on the chunk).
+    little (results do not depend on the chunk; the robust evaluation's replicas ride in the batch).
     """
-    args = {k: problem_args.get(k) for k in ("time", "terrain", "delta")}
+    args = {k: problem_args.get(k) for k in ("time", "terrain", "delta", "evaluation", "perturb")}
+    if batch and args["evaluation"] == "robust":
+        from cpgjax.episode.perturb import Perturbations
+
+        batch *= Perturbations(**(args["perturb"] or {})).replicas
     return make_problem(problem_args["model"], **args, chunk=eval_chunk(batch) if batch else None)

@@ -1,0 +1,121 @@
+"""The ``export``, ``crosscheck`` and ``transfer`` subcommands: MJCF, the same controllers in MuJoCo, evolved gaits
+replayed in MuJoCo."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from typing import Any
+
+from cpgjax.cli import options as o
+
+
+def register(subparsers: Any) -> None:
+    e = subparsers.add_parser("export", help="write the model as MJCF for MuJoCo / MJX")
+    e.add_argument("model", help="robot description (.wl)")
+    e.add_argument("--out", help="output .xml (default: beside the model)")
+    e.add_argument("--terrain", type=o.terrain, help="terrain (default: the file's)")
+    e.set_defaults(func=cmd_export)
+
+    c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
+    c.add_argument("model", help="robot description (.wl)")
+    c.add_argument("--ctl", nargs="*", help="controllers (.ctl)")
+    c.add_argument("--controllers", nargs="*", metavar="RUN.h5", help="GA runs: their 8 best distinct genomes")
+    c.add_argument("--random", type=o.count0, default=16, help="random controllers in [-0.8, 0.8] (default 16)")
+    c.add_argument("--perturbed", type=o.count0, default=16,
+                   help="the hand-written trot with N(0, 0.1) added to every gene (default 16)")
+    c.add_argument("--perturb-ctl", help="controller to perturb (default models/quadruped-trot.ctl)")
+    c.add_argument("--n", type=o.count, help="at most this many controllers")
+    c.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax)")
+    c.add_argument("--terrain", type=o.terrain, help="terrain (default: the file's)")
+    c.add_argument("--show", type=o.count0, default=0, help="which controller to plot (index, default 0)")
+    c.add_argument("--no-mjx", action="store_true", help="skip MJX (slow to compile)")
+    c.add_argument("--seed", type=o.seed, default=0, help="random seed (default 0)")
+    c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
+    c.set_defaults(func=cmd_crosscheck)
+
+    t = subparsers.add_parser(
+        "transfer", help="do evolved gaits carry over? each run's best replayed in MuJoCo C (thesis Fig. 6.3-6.4)",
+        description="Replay the best controller of each run (RUN.h5 files, or every run of sweep folders) in our "
+                    "simulator and in MuJoCo C, once and under jittered replays; tabulate fitness and speed here vs "
+                    "there, their ratio and the falls, per evaluation mode (thesis / robust).")
+    t.add_argument("runs", nargs="+", metavar="RUN.h5|SWEEP_DIR")
+    t.add_argument("--replays", type=o.count, default=32, help="jittered replays per run (default 32)")
+    t.add_argument("--jitter", type=o.nonneg, default=1e-3, help="sd of the gene jitter, rad (default 1e-3)")
+    t.add_argument("--seed", type=o.seed, default=0, help="random seed of the jitter (default 0)")
+    t.add_argument("--out", default=None, metavar="DIR", help="write transfer.md, transfer.json and transfer.png here")
+    t.add_argument("--json", action="store_true", help="print one JSON object with the summary instead of the table")
+    t.set_defaults(func=cmd_transfer)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from cpgjax.crosscheck.mjcf import load, to_mjcf
+    from cpgjax.io.wl import load_model
+
+    out = args.out or os.path.splitext(args.model)[0] + ".xml"
+    o.check_output_file(out)
+    model = load_model(args.model, terrain=args.terrain)
+    text = to_mjcf(model)
+    mj = load(model)  # proves that MuJoCo loads it (before anything is written)
+    with open(out, "w") as f:
+        f.write(text)
+    print(f"wrote {out}: {mj.nbody - 1} bodies, {mj.njnt} joints, {mj.nu} actuators, "
+          f"total mass {mj.body_mass.sum():.3f} kg")
+    return 0
+
+
+def cmd_crosscheck(args: argparse.Namespace) -> int:
+    from cpgjax.crosscheck.compare import controllers, run_crosscheck, table
+    from cpgjax.io.wl import load_model
+
+    o.check_output_dir(args.out)
+    model = load_model(args.model, terrain=args.terrain)
+    here = os.path.dirname(os.path.abspath(args.model))
+    trot = os.path.join(here, "quadruped-trot.ctl")
+    base = args.perturb_ctl or (trot if os.path.exists(trot) and model.n_ctrl == 8 else None)
+    coeffs, labels = controllers(model, ctl_files=args.ctl or (), run_files=args.controllers or (),
+                                 n_random=args.random, n_perturbed=args.perturbed if base else 0,
+                                 base_ctl=base, seed=args.seed)
+    if len(coeffs) == 0:
+        raise ValueError("no controllers: give --ctl, --controllers RUN.h5, --random N or --perturbed N")
+    if args.n:
+        coeffs, labels = coeffs[: args.n], labels[: args.n]
+    T = args.time or model.time_max
+    rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, show=args.show,
+                                   out_dir=args.out)
+    engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
+    print(table(rows, summary, engines))
+    if args.out:
+        print(f"\nwrote {args.out}/crosscheck.md, joints.png, cm_path.png")
+    return 0
+
+
+def cmd_transfer(args: argparse.Namespace) -> int:
+    import json
+
+    from tqdm.auto import tqdm
+
+    from cpgjax.crosscheck import transfer
+
+    if args.out:
+        o.check_output_dir(args.out)
+    files = transfer.run_files(args.runs)
+    with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
+        replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
+                                       progress=lambda _: bar.update())
+    summary = transfer.summary(replays)
+    text = transfer.table(replays, args.replays)
+    if args.out:
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, "transfer.md"), "w") as f:
+            f.write(text + "\n")
+        with open(os.path.join(args.out, "transfer.json"), "w") as f:
+            json.dump({"summary": summary, "runs": [r.__dict__ for r in replays]}, f, indent=1, default=float)
+        transfer.plot(replays, os.path.join(args.out, "transfer.png"))
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(text)
+        if args.out:
+            print(f"\nwrote {args.out}/transfer.md, transfer.json, transfer.png")
+    return 0

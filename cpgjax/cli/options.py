@@ -1,0 +1,200 @@
+"""What every command group shares: the parser class, option types that name the bad value, output checks.
+
+Option values are checked at parse time by the ``type=`` functions here (a bad one is one line,
+``cpgjax COMMAND: error: argument --time: ...``, exit 2); outputs are checked with
+:func:`check_output_file` / :func:`check_output_dir` *before* any work, so that a run never
+computes for minutes and then fails to write.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from collections.abc import Callable
+from typing import Any
+
+from cpgjax.errors import CpgjaxError
+
+MAX_TIME = 3600.0        # s: the longest episode an option accepts (the thesis's are 10 s)
+MAX_COUNT = 10_000_000   # a sane bound on populations, generations, samples, replays
+MAX_SEED = 2**31 - 1
+
+
+class CommandFailed(CpgjaxError):
+    """The input was fine but the work failed (e.g. a notebook cell raised): one line, exit code 1."""
+
+    exit_code = 1
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose usage errors are one line: ``cpgjax COMMAND: error: MESSAGE`` (exit 2)."""
+
+    def error(self, message: str) -> Any:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _bad(text: str, what: str) -> argparse.ArgumentTypeError:
+    return argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+
+
+def number(text: str, what: str = "a number", lo: float = -math.inf, hi: float = math.inf,
+           lo_open: bool = False) -> float:
+    """A finite float in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``), else ArgumentTypeError naming ``what``."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise _bad(text, what) from None
+    if not math.isfinite(v) or v > hi or v < lo or (lo_open and v == lo):
+        raise _bad(text, what)
+    return v
+
+
+def whole(text: str, what: str = "a whole number", lo: int = 0, hi: int = MAX_COUNT) -> int:
+    """An int in ``[lo, hi]``, else ArgumentTypeError naming ``what``."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise _bad(text, what) from None
+    if not lo <= v <= hi:
+        raise _bad(text, what)
+    return v
+
+
+def _named(fn: Callable, name: str) -> Callable:
+    fn.__name__ = name
+    return fn
+
+
+def float_in(lo: float = -math.inf, hi: float = math.inf, *, lo_open: bool = False, what: str) -> Callable:
+    return _named(lambda t: number(t, what, lo, hi, lo_open), what)
+
+
+def int_in(lo: int = 0, hi: int = MAX_COUNT, *, what: str | None = None) -> Callable:
+    w = what or (f"a whole number >= {lo}" if hi == MAX_COUNT else f"a whole number in [{lo}, {hi}]")
+    return _named(lambda t: whole(t, w, lo, hi), w)
+
+
+# the option types the commands use
+seconds = float_in(0.0, MAX_TIME, lo_open=True, what=f"a time in seconds, > 0 and <= {MAX_TIME:g}")
+step = float_in(0.0, 0.05, lo_open=True, what="a time step in seconds, > 0 and <= 0.05")
+positive = float_in(0.0, lo_open=True, what="a finite number > 0")
+nonneg = float_in(0.0, what="a finite number >= 0")
+finite = float_in(what="a finite number")
+fraction = float_in(0.0, 1.0, what="a number in [0, 1]")
+count = int_in(1)                      # populations, generations, samples, batches, replays
+count0 = int_in(0)                     # pocket sizes, extra controllers
+seed = int_in(0, MAX_SEED)
+
+
+def list_of(conv: Callable, what: str) -> Callable:
+    """A comma list (``0,0.01,0.1``) of ``conv`` values, naming the bad item."""
+
+    def parse(text: str) -> list:
+        out = []
+        for x in text.split(","):
+            if not x.strip():
+                continue
+            try:
+                out.append(conv(x.strip()))
+            except (ValueError, argparse.ArgumentTypeError):
+                raise argparse.ArgumentTypeError(f"{what}: {x.strip()!r} in {text!r} is not valid") from None
+        if not out:
+            raise argparse.ArgumentTypeError(f"{what}: empty list")
+        return out
+
+    return _named(parse, what)
+
+
+def terrain(text: str) -> str:
+    """A terrain specification, checked now (``flat``, ``ramp:SLOPE[:X|Y]``, ``bump:…``, ``rough:…``)."""
+    from cpgjax.sim.terrain import parse_terrain
+
+    try:
+        parse_terrain(text)
+    except (ValueError, TypeError) as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text
+
+
+def perturbations(text: str) -> dict:
+    """``KEY=VALUE,...`` ranges of the robust evaluation (cpgjax.episode.perturb.Perturbations), checked now."""
+    import dataclasses
+
+    from cpgjax.episode.perturb import Perturbations
+
+    fields = {f.name: f.type for f in dataclasses.fields(Perturbations)}
+    out: dict = {}
+    for item in (x.strip() for x in text.split(",") if x.strip()):
+        key, sep, value = item.partition("=")
+        key = key.strip().replace("-", "_")
+        if not sep or key not in fields:
+            raise argparse.ArgumentTypeError(f"expected KEY=VALUE with KEY in {', '.join(fields)}, got {item!r}")
+        try:
+            out[key] = (value.strip().lower() in ("1", "on", "true", "yes") if key == "fall_ends"
+                        else int(value) if key == "replicas" else float(value))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{key}: expected a number, got {value!r}") from None
+    try:
+        Perturbations(**out)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return out
+
+
+TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
+
+
+# --- outputs --------------------------------------------------------------------------------------
+
+
+def _first_existing(path: str) -> str:
+    """The nearest of ``path`` and its parents (as written) that exists."""
+    p = path
+    while not os.path.lexists(p):
+        parent = os.path.dirname(p)
+        if not parent or parent == p:
+            return parent or "."
+        p = parent
+    return p
+
+
+def _check_folder_chain(path: str, folder: str) -> None:
+    """``folder`` (to hold ``path``) exists as a writable folder, or can be created in one."""
+    anc = _first_existing(folder or ".")
+    if not os.path.isdir(anc):
+        raise CpgjaxError(f"{path}: cannot write there: {anc} is a file, not a folder")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise CpgjaxError(f"{path}: cannot write there: permission denied on the folder {anc}")
+
+
+def check_output_file(path: str | os.PathLike[str] | None, option: str = "--out") -> None:
+    """Raise :class:`CpgjaxError` (naming ``path``) if ``path`` cannot be written; creates nothing."""
+    if path is None:
+        return
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        raise CpgjaxError(f"{p}: is a folder; {option} needs a file name")
+    if os.path.lexists(p) and not os.access(p, os.W_OK):
+        raise CpgjaxError(f"{p}: cannot write: permission denied")
+    _check_folder_chain(p, os.path.dirname(p))
+
+
+def check_output_dir(path: str | os.PathLike[str] | None, option: str = "--out") -> None:
+    """Raise :class:`CpgjaxError` (naming ``path``) if the folder ``path`` cannot be created or written into."""
+    if path is None:
+        return
+    p = os.fspath(path)
+    if os.path.lexists(p) and not os.path.isdir(p):
+        raise CpgjaxError(f"{p}: is a file; {option} needs a folder")
+    _check_folder_chain(p, p)
+
+
+def default_model() -> str:
+    """``models/quadruped.wl`` of the working directory or of the source tree."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    root = os.path.dirname(os.path.dirname(here))
+    for cand in (os.path.join(os.getcwd(), "models", "quadruped.wl"), os.path.join(root, "models", "quadruped.wl")):
+        if os.path.exists(cand):
+            return cand
+    return "models/quadruped.wl"

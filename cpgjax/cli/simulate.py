@@ -1,0 +1,115 @@
+"""The ``simulate`` and ``robustness`` subcommands of ``cpgjax``: one episode, and a controller's spread."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from typing import Any
+
+import numpy as np
+
+from cpgjax.cli import options as o
+
+
+def register(subparsers: Any) -> None:
+    from cpgjax.episode.fitness import DEFAULT_DELTA
+
+    s = subparsers.add_parser("simulate", help="run one episode of a model (and a .ctl controller)")
+    s.add_argument("model", help="robot description (.wl)")
+    s.add_argument("--ctl", help="controller (.ctl); without it every servo holds angle 0")
+    s.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax)")
+    s.add_argument("--terrain", type=o.terrain, help=o.TERRAIN_HELP)
+    s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
+    s.add_argument("--dt", type=o.step, help="integration step (default: the file's TimeStep or 5e-4 s)")
+    s.add_argument("--gravity", type=o.finite, help="gravity [m/s^2] (default: the file's, 9.81)")
+    s.add_argument("--delta", type=o.positive, default=DEFAULT_DELTA,
+                   help=f"delta of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
+    s.set_defaults(func=cmd_simulate)
+
+    r = subparsers.add_parser("robustness",
+                              help="replay a controller with its genes jittered: mean and spread of fitness")
+    r.add_argument("model", help="robot description (.wl)")
+    r.add_argument("--ctl", required=True, help="controller (.ctl)")
+    r.add_argument("--n", type=o.count, default=64, help="replays per jitter (default 64)")
+    r.add_argument("--jitter", type=o.list_of(o.nonneg, "expected numbers >= 0, e.g. 1e-6,1e-4"),
+                   default=[1e-6, 1e-4, 1e-2], help="standard deviations of the gene offsets (default 1e-6,1e-4,1e-2)")
+    r.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax)")
+    r.add_argument("--terrain", type=o.terrain, help="terrain (default: the file's)")
+    r.add_argument("--delta", type=o.positive, default=DEFAULT_DELTA,
+                   help=f"delta of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
+    r.add_argument("--seed", type=o.seed, default=0, help="random seed of the offsets (default 0)")
+    r.set_defaults(func=cmd_robustness)
+
+
+def load_controller(ctl: str | None, model) -> tuple[np.ndarray, str]:
+    """The coefficients of ``ctl`` for ``model`` (zeros without one) and the controller's name."""
+    from cpgjax.io.ctl import read_ctl
+
+    if not ctl:
+        return np.zeros((model.n_ctrl, model.n_coeff)), "-"
+    c = read_ctl(ctl, n_dof=model.n_ctrl, harmonics=model.harmonics)
+    return np.asarray(c.coeffs), ctl
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from cpgjax.episode.batch import simulate
+    from cpgjax.io.logs import pose_rows, write_log
+    from cpgjax.io.wl import load_model
+
+    o.check_output_dir(args.log, "--log")
+    model = load_model(args.model, dt=args.dt, terrain=args.terrain)
+    if args.gravity is not None:
+        model = model.replace(gravity=args.gravity)
+    coeffs, ctl_name = load_controller(args.ctl, model)
+    T = model.time_max if args.time is None else args.time
+    r = simulate(model, coeffs, time=T, delta=args.delta, record=bool(args.log))
+    body = model.body_names[model.track]
+    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, dt {model.dt:g} s, "
+          f"terrain {model.terrain.spec})")
+    print(f"control   {ctl_name}")
+    print(f"time      {T:g} s")
+    print(f"distance  {float(r['distance']):+.4f} m   (body {body}, forward = +y)")
+    print(f"speed     {float(r['speed']):+.4f} m/s")
+    print(f"tilt      {np.degrees(float(r['tilt'])):.2f} deg (mean angle of the body normal from vertical)")
+    print(f"fitness   {float(r['fitness']):+.6f}   (eq. 4.6, delta {args.delta:g})")
+    print(f"fallen    {'yes' if r['fallen'] else 'no'}")
+    print(f"diverged  {'yes' if r['diverged'] else 'no'}")
+    print(f"pivots    max stretch {1000 * float(r['pivot_err']):.3f} mm")
+    if args.log:
+        desc = model.description
+        logs = desc.logs if desc and desc.logs else []
+        if not logs:
+            from cpgjax.sim.description import LogDef
+
+            logs = [LogDef(body, f"{body.lower()}.log", 0)]
+        for lg in logs:
+            i = model.body_index(lg.body)
+            kind = "compound" if desc and lg.body in desc.compounds else "object"
+            path = os.path.join(args.log, os.path.basename(lg.file))
+            write_log(path, kind, lg.body, os.path.basename(args.model), os.path.basename(ctl_name),
+                      pose_rows(r["traj"], i))
+            print(f"log       {path}")
+    return 1 if r["diverged"] else 0
+
+
+def cmd_robustness(args: argparse.Namespace) -> int:
+    """Replay a controller with every gene moved by tiny random amounts: how chaotic is its score?"""
+    from cpgjax.episode.batch import simulate
+    from cpgjax.io.wl import load_model
+
+    model = load_model(args.model, terrain=args.terrain)
+    coeffs, name = load_controller(args.ctl, model)
+    rng = np.random.default_rng(args.seed)
+    rows = []
+    for eps in args.jitter:
+        C = coeffs[None] + rng.normal(0.0, eps, (args.n,) + coeffs.shape)
+        C[0] = coeffs
+        r = simulate(model, C, time=args.time, delta=args.delta)
+        f = r["fitness"]
+        rows.append((eps, f[0], f.mean(), f.std(), f.min(), f.max(), int(r["fallen"].sum()),
+                     int(r["diverged"].sum())))
+    print(f"controller {name}: {args.n} replays per jitter (replay 0 is the controller itself)")
+    print(f"{'jitter':>8}{'itself':>10}{'mean':>10}{'sd':>9}{'min':>10}{'max':>10}{'fell':>6}{'diverged':>10}")
+    for e, f0, m, sd, lo, hi, fell, div in rows:
+        print(f"{e:>8.0e}{f0:>10.4f}{m:>10.4f}{sd:>9.4f}{lo:>10.4f}{hi:>10.4f}{fell:>6}{div:>10}")
+    return 0
