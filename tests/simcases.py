@@ -121,3 +121,20 @@ def energy(model, traj):
         rot = rot + 0.5 * np.einsum("si,sij,sj->s", wb, Iw, wb)
     pe = model.gravity * (m[None] * x[:, 2]).sum(-1)
     return ke + rot + pe
+
+
+def block_on_slope(slope: float, mu: float):
+    """A 2 kg, 10 cm cube resting (1 mm up) on a ramp of ``slope`` rad, friction ``mu``."""
+    return model_from(f"""
+TimeMax 2
+LogRate 50
+Friction {mu}
+Terrain ramp {slope}
+Object Box {{
+    Type Cube
+    Mass 2
+    Dimensions .1 .1 .1
+    Position 0 1.0 {-np.tan(slope) * 1.0 + 0.05 / np.cos(slope) + 0.001}
+    Orientation {-slope} 0 0
+}}
+""")

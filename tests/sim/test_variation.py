@@ -3,7 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
-from simcases import box, model_from
+from simcases import block_on_slope, box
 
 from cpgjax.episode.batch import evaluate
 from cpgjax.episode.rollout import rollout
@@ -42,20 +42,7 @@ def test_resting_penetration_follows_the_scaled_mass():
 
 def test_friction_scale_moves_the_friction_angle():
     """A block on a 0.3 rad slope (tan 0.31) with mu 0.4 sticks; scaled to 0.6 x 0.4 = 0.24 it slides."""
-    slope = 0.3
-    m = model_from(f"""
-TimeMax 2
-LogRate 50
-Friction 0.4
-Terrain ramp {slope}
-Object Box {{
-    Type Cube
-    Mass 2
-    Dimensions .1 .1 .1
-    Position 0 1.0 {-np.tan(slope) * 1.0 + 0.05 / np.cos(slope) + 0.001}
-    Orientation {-slope} 0 0
-}}
-""")
+    m = block_on_slope(0.3, 0.4)
     var = Variation.nominal(m, 2)._replace(friction=jnp.asarray([1.0, 0.6]))
     y = _run(m, var, 1.5, record=True)["traj"]["x"][:, 1, 0]
     moved = np.abs(y[-1] - y[10])
