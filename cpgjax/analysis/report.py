@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -60,174 +60,264 @@ def _tally(flags: Sequence[bool], what: str) -> str:
     return ("**partly**" if k else "**no**") + f" — {what} for {k} of {n} γ"
 
 
+def _row(thesis: str, measured: str, verdict: str) -> str:
+    return f"| {thesis} | {measured} | {verdict} |"
+
+
+CellStats = tuple[Any, dict[str, Any]]   # (Cell, cell_stats(cell))
+
+
+class Sweep:
+    """What a claim sees: the cells with their stats, the GA's γ and pocket levels, and lookups."""
+
+    def __init__(self, stats: list[CellStats]):
+        self.stats = stats
+        self.ga = [(c, s) for c, s in stats if c.kind == "ga"]
+        self.amc = [(c, s) for c, s in stats if c.kind == "amc"]
+        self.gammas = sorted({float(c.config.get("gamma", 0)) for c, _ in self.ga})
+        self.pockets = sorted({int(c.config.get("pocket", 0)) for c, _ in self.ga if c.config.get("pocket")})
+        self.pocket = self.pockets[0] if self.pockets else None     # the pocket size the claims compare
+        self.random = self.find("random")
+        self.best_ga = max(self.ga, key=lambda cs: _mean(cs[1]["best"]), default=None)
+
+    def find(self, kind: str, **settings: Any) -> CellStats | None:
+        """The first cell of ``kind`` whose config matches ``settings``, with its stats (None: no such cell)."""
+        for c, s in self.stats:
+            if c.kind == kind and all(same_setting(c.config.get(k), v) for k, v in settings.items()):
+                return c, s
+        return None
+
+    def ga_stats(self, **settings: Any) -> dict[str, Any] | None:
+        found = self.find("ga", **settings)
+        return None if found is None else found[1]
+
+    def pairs(self, a: dict, b: dict):
+        """``(gamma, stats with settings a, stats with settings b)`` for each gamma where both GA cells exist."""
+        for g in self.gammas:
+            s0, s1 = self.ga_stats(gamma=g, **a), self.ga_stats(gamma=g, **b)
+            if s0 is not None and s1 is not None:
+                yield g, s0, s1
+
+    def pocket_pairs(self):
+        """:meth:`pairs` without → with pocketing (no cross-over); none when the sweep has no pocketing."""
+        if self.pocket is None:
+            return iter(())
+        return self.pairs({"pocket": 0, "crossover": False}, {"pocket": self.pocket, "crossover": False})
+
+    def crossover_pairs(self):
+        """:meth:`pairs` without → with cross-over (with pocketing); none when the sweep has no pocketing."""
+        if self.pocket is None:
+            return iter(())
+        return self.pairs({"pocket": self.pocket, "crossover": False}, {"pocket": self.pocket, "crossover": True})
+
+
+def pocketing_doubles_the_plateau(ctx: Sweep) -> list[str]:
+    """Fig. 6.8: "Pocketing more than doubles the plateau"."""
+    ratios, parts, single = [], [], []
+    for g, s0, s1 in ctx.pocket_pairs():
+        r = _mean(s1["plateau"]) / _mean(s0["plateau"]) if _mean(s0["plateau"]) > 0 else float("inf")
+        ratios.append(r)
+        # the thesis compared single trials: every (with, without) pair of seeds is one such comparison
+        pair = np.asarray(s1["plateau"], float)[:, None] / np.asarray(s0["plateau"], float)[None, :]
+        single.append(float(np.mean(pair > 2)))
+        parts.append(f"γ={g:g}: {_mean(s0['plateau']):.3f} → {_mean(s1['plateau']):.3f} (×{r:.2f})")
+    if not ratios:
+        return []
+    return [_row(f"Pocketing ({ctx.pocket} of N) more than doubles the plateau (Fig. 6.8)",
+                 f"plateau without → with pocket: {'; '.join(parts)}; a single trial with pocketing against a single "
+                 "trial without (every pair of seeds) more than doubles in "
+                 + ", ".join(f"{100 * x:.0f} %" for x in single) + " of pairs",
+                 _tally([r > 2 for r in ratios], f"mean ratio {min(ratios):.2f}–{max(ratios):.2f}; more than 2"))]
+
+
+def pocketing_reduces_oscillation(ctx: Sweep) -> list[str]:
+    """Fig. 6.8: with pocketing "the residual oscillation is much reduced, in relative terms"."""
+    osc = [(_mean(s0["oscillation"]), _mean(s1["oscillation"])) for _, s0, s1 in ctx.pocket_pairs()]
+    if not osc:
+        return []
+    return [_row("... and the residual oscillation is much reduced, in relative terms",
+                 "relative oscillation (sd/mean of the best, last 50 gen.) without → with pocket: "
+                 + "; ".join(f"{a:.3g} → {b:.3g}" for a, b in osc),
+                 _tally([b < a for a, b in osc], "lower"))]
+
+
+def large_gamma_plateaus_early(ctx: Sweep) -> list[str]:
+    """Fig. 6.7: "Large γ saturates early, reaching a plateau" (with and without pocketing)."""
+    if len(ctx.gammas) < 2:
+        return []
+    lo, hi = ctx.gammas[0], ctx.gammas[-1]
+    rows = []
+    for P in [0] + ctx.pockets[:1]:
+        sl, sh = ctx.ga_stats(gamma=lo, pocket=P, crossover=False), ctx.ga_stats(gamma=hi, pocket=P, crossover=False)
+        if sl is None or sh is None:
+            continue
+        early = _mean(sh["t90"]) < _mean(sl["t90"])
+        lower = _mean(sh["plateau"]) < _mean(sl["plateau"])
+        rows.append(_row(f"Large γ saturates early, reaching a plateau (Fig. 6.7; pocket {P})",
+                         f"γ={hi:g}: t90 {_mean(sh['t90']):.0f}, plateau {_mean(sh['plateau']):.3f}; γ={lo:g}: t90 "
+                         f"{_mean(sl['t90']):.0f}, plateau {_mean(sl['plateau']):.3f}",
+                         _verdict(early, "plateaus earlier" + (" and lower" if lower else " (not lower)")
+                                  if early else "does not plateau earlier")))
+    return rows
+
+
+def smaller_gamma_higher_plateau(ctx: Sweep) -> list[str]:
+    """Fig. 6.7: "As γ decreases the fitness rises to higher plateaus, up to a point"."""
+    if len(ctx.gammas) < 3:
+        return []
+    rows = []
+    for P in [0] + ctx.pockets[:1]:
+        found = [(g, ctx.ga_stats(gamma=g, pocket=P, crossover=False)) for g in ctx.gammas]
+        found = [(g, s) for g, s in found if s is not None]
+        if len(found) < 3:
+            continue
+        pl = [_mean(s["plateau"]) for _, s in found]
+        top = found[int(np.argmax(pl))][0]
+        lowest_at_max = int(np.argmin(pl)) == len(pl) - 1
+        rows.append(_row(f"As γ decreases the fitness rises to higher plateaus, up to a point (Fig. 6.7; pocket {P})",
+                         "plateau by γ: " + ", ".join(f"{g:g}: {p:.3f}" for (g, _), p in zip(found, pl, strict=True)),
+                         _verdict(lowest_at_max, f"lowest at γ={found[-1][0]:g}, highest at γ={top:g}"
+                                  if lowest_at_max else f"the largest γ is not the lowest (highest at γ={top:g})")))
+    return rows
+
+
+def crossover_no_gain(ctx: Sweep) -> list[str]:
+    """Fig. 6.9: "Cross-over does not improve the performance over one trial"."""
+    parts, better = [], []
+    for g, s0, s1 in ctx.crossover_pairs():
+        d = _mean(s1["plateau"]) - _mean(s0["plateau"])
+        sd = float(np.sqrt((np.nanvar(s0["plateau"], ddof=1) + np.nanvar(s1["plateau"], ddof=1))
+                           / max(len(s0["plateau"]), 1)))
+        better.append(d > 2 * sd)
+        parts.append(f"γ={g:g}: {_mean(s0['plateau']):.3f} → {_mean(s1['plateau']):.3f}")
+    if not parts:
+        return []
+    return [_row("Cross-over does not improve the performance over one trial (Fig. 6.9)",
+                 f"plateau without → with cross-over (pocket {ctx.pocket}): {'; '.join(parts)}",
+                 _verdict(not any(better), "no significant gain (> 2 s.e.)" if not any(better)
+                          else "cross-over is better for some γ"))]
+
+
+def _crossover_compare(ctx: Sweep, metric: str) -> tuple[str, list[bool]]:
+    """Per γ, ``metric`` without → with cross-over, and whether it is larger with it."""
+    rows = [(g, _mean(s0[metric]), _mean(s1[metric])) for g, s0, s1 in ctx.crossover_pairs()]
+    return "; ".join(f"γ={g:g}: {a:.3g} → {b:.3g}" for g, a, b in rows), [b > a for _, a, b in rows]
+
+
+def crossover_keeps_oscillating(ctx: Sweep) -> list[str]:
+    """Fig. 6.9: "With cross-over the fitness keeps oscillating near saturation, even for small mutation rates"."""
+    text, larger = _crossover_compare(ctx, "oscillation")
+    if not larger:
+        return []
+    return [_row("With cross-over the fitness keeps oscillating near saturation, even for small mutation rates "
+                 "(Fig. 6.9)", f"relative oscillation without → with cross-over (pocket {ctx.pocket}): {text}",
+                 _tally(larger, "larger with cross-over"))]
+
+
+def crossover_more_diverse(ctx: Sweep) -> list[str]:
+    """Ch. 6.2.4 (Fig. 6.9): "With cross-over the last generations are more varied; without it they cluster"."""
+    text, more = _crossover_compare(ctx, "diversity")
+    if not more:
+        return []
+    return [_row("With cross-over the last generations are more varied; without it they cluster around one set of "
+                 "parameters (Ch. 6.2.4)", "genetic diversity (sd of a gene over the population, mean over genes, "
+                 f"last generations) without → with cross-over: {text}", _tally(more, "more diverse"))]
+
+
+def random_search_half_the_ga(ctx: Sweep) -> list[str]:
+    """Fig. 6.10: "Random search: best ≈ half the GA's"."""
+    if ctx.best_ga is None or ctx.random is None:
+        return []
+    (cg, sg), sr = ctx.best_ga, ctx.random[1]
+    r = _mean(sg["best"]) / _mean(sr["best"])
+    span = [_mean(s["best"]) for _, s in ctx.ga]
+    return [_row("Random search: best ≈ half the GA's (Fig. 6.10)",
+                 f"best found: GA ({cg.label()}, the best of {len(ctx.ga)} GA settings; all of them: "
+                 f"{min(span):.3f}–{max(span):.3f}) {_mean(sg['best']):.3f}, random {_mean(sr['best']):.3f} "
+                 f"(GA ×{r:.2f})", _verdict(1.5 <= r <= 3.0, f"ratio {r:.2f}" + ("" if 1.5 <= r <= 3.0 else
+                                                                                  " (not about 2)")))]
+
+
+def random_search_mean_zero(ctx: Sweep) -> list[str]:
+    """Fig. 6.10: "Random search: mean fitness ≈ 0"."""
+    if ctx.random is None:
+        return []
+    sr = ctx.random[1]
+    m = _mean(sr["mean_all"])
+    return [_row("Random search: mean fitness ≈ 0 (Fig. 6.10)", f"mean of all samples {_ms(sr['mean_all'])}",
+                 _verdict(abs(m) < 0.02, f"{m:.4f}"))]
+
+
+def adaptive_mc_positive_mean(ctx: Sweep) -> list[str]:
+    """Fig. 6.11: "Adaptive MC: positive mean, unlike random search"."""
+    if not ctx.amc:
+        return []
+    ms = [_mean(s["mean_all"]) for _, s in ctx.amc]
+    pos = all(m > 0 for m in ms)
+    above = ctx.random is not None and all(m > _mean(ctx.random[1]["mean_all"]) for m in ms)
+    return [_row("Adaptive MC: positive mean, unlike random search (Fig. 6.11)",
+                 "mean of samples: " + "; ".join(f"M={c.config.get('M')}: {m:.3f}"
+                                                 for (c, _), m in zip(ctx.amc, ms, strict=True)),
+                 _verdict(pos, "positive for every M" if pos else "not positive for every M")
+                 + (" and above random search's" if above else ""))]
+
+
+def ga_twice_the_others(ctx: Sweep) -> list[str]:
+    """Fig. 6.12: "GA outperforms the other methods roughly by a factor of 2"."""
+    others = ctx.amc + ([ctx.random] if ctx.random is not None else [])
+    if ctx.best_ga is None or not others:
+        return []
+    best = _mean(ctx.best_ga[1]["best"])
+    c5 = next(((c, s) for c, s in ctx.amc if c.config.get("M") == 5), None)
+    best_other = max(others, key=lambda cs: _mean(cs[1]["best"]))
+    r = best / _mean(best_other[1]["best"])
+    txt = f"best found: GA {best:.3f}; best other ({best_other[0].label()}) {_mean(best_other[1]['best']):.3f} " \
+          f"(GA ×{r:.2f})"
+    if c5 is not None:
+        txt += f"; AMC M=5 {_mean(c5[1]['best']):.3f} (GA ×{best / _mean(c5[1]['best']):.2f})"
+    return [_row("GA outperforms the other methods roughly by a factor of 2 (Fig. 6.12)", txt,
+                 _verdict(r >= 1.5, f"GA ×{r:.2f} the best other method"))]
+
+
+CLAIMS: list[Callable[[Sweep], list[str]]] = [
+    pocketing_doubles_the_plateau, pocketing_reduces_oscillation, large_gamma_plateaus_early,
+    smaller_gamma_higher_plateau, crossover_no_gain, crossover_keeps_oscillating, crossover_more_diverse,
+    random_search_half_the_ga, random_search_mean_zero, adaptive_mc_positive_mean, ga_twice_the_others,
+]
+
+
+def _setting_rows(stats: list[CellStats]) -> list[str]:
+    """The per-setting table: one row per cell."""
+    rows = ["| method | setting | seeds | evaluations | best | plateau | t90 (gen) | oscillation | mean of samples |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for c, s in stats:
+        setting = c.label() if c.kind != "ga" else (
+            f"N={c.config.get('population')}, μmax={c.config.get('mu_max')}, " + c.label())
+        t90 = _ms(s["t90"]) if c.kind == "ga" else "–"
+        osc = _ms(s["oscillation"]) if c.kind == "ga" else "–"
+        rows.append(f"| {c.kind} | {setting} | {s['seeds']} | {s['evaluations']} | {_ms(s['best'])} | "
+                    f"{_ms(s['plateau'])} | {t90} | {osc} | {_ms(s['mean_all'])} |")
+    return rows
+
+
 def report(out_dir: str | os.PathLike[str]) -> str:
     """The markdown summary of a sweep: every cell (mean ± sd over seeds) and the thesis's claims checked."""
     files = [p for fs in find_runs(out_dir).values() for p in fs]
     if not files:
         raise ValueError(f"no run files under {out_dir}")
-    cells = load_cells(files)
-    stats = [(c, cell_stats(c)) for c in cells]
+    stats = [(c, cell_stats(c)) for c in load_cells(files)]
+    ctx = Sweep(stats)
     lines = [f"# Sweep report: `{os.fspath(out_dir)}`", "",
              f"Best = best valid fitness found in the run; plateau = GA: mean of the best of each generation "
              f"over the last {PLATEAU} generations (searches: best so far at the end); t90 = first generation at "
              "which the 10-generation running mean of the best reaches 90 % of the way from generation 0 to "
              "the plateau; oscillation = sd / mean of the best of each generation over the last 50 "
              "generations; mean = mean fitness of every sample.  All: mean ± sd over seeds.", "",
-             "| method | setting | seeds | evaluations | best | plateau | t90 (gen) | oscillation | mean of samples |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for c, s in stats:
-        setting = c.label() if c.kind != "ga" else (
-            f"N={c.config.get('population')}, μmax={c.config.get('mu_max')}, " + c.label())
-        t90 = _ms(s["t90"]) if c.kind == "ga" else "–"
-        osc = _ms(s["oscillation"]) if c.kind == "ga" else "–"
-        lines.append(f"| {c.kind} | {setting} | {s['seeds']} | {s['evaluations']} | {_ms(s['best'])} | "
-                     f"{_ms(s['plateau'])} | {t90} | {osc} | {_ms(s['mean_all'])} |")
-
-    def find(kind, **kw):
-        for c, s in stats:
-            if c.kind == kind and all(same_setting(c.config.get(k), v) for k, v in kw.items()):
-                return c, s
-        return None, None
-
-    def pairs(a: dict, b: dict):
-        """``(gamma, stats with settings a, stats with settings b)`` for each gamma where both GA cells exist."""
-        for g in gammas:
-            s0, s1 = find("ga", gamma=g, **a)[1], find("ga", gamma=g, **b)[1]
-            if s0 is not None and s1 is not None:
-                yield g, s0, s1
-
-    claims = ["", "## The thesis's claims (Ch. 6.2-6.3) against this sweep", "",
-              "| thesis (Ch. 6.2-6.3) | measured here | verdict |", "|---|---|---|"]
-    ga_cells = [(c, s) for c, s in stats if c.kind == "ga"]
-    gammas = sorted({float(c.config.get("gamma", 0)) for c, _ in ga_cells})
-    pockets = sorted({int(c.config.get("pocket", 0)) for c, _ in ga_cells if c.config.get("pocket")})
-    # 1. pocketing doubles the plateau; 2. less relative oscillation
-    if pockets:
-        P = pockets[0]
-        ratios, osc0, osc1, parts, single = [], [], [], [], []
-        for g, s0, s1 in pairs({"pocket": 0, "crossover": False}, {"pocket": P, "crossover": False}):
-            r = _mean(s1["plateau"]) / _mean(s0["plateau"]) if _mean(s0["plateau"]) > 0 else float("inf")
-            ratios.append(r)
-            # the thesis compared single trials: every (with, without) pair of seeds is one such comparison
-            pair = np.asarray(s1["plateau"], float)[:, None] / np.asarray(s0["plateau"], float)[None, :]
-            single.append(float(np.mean(pair > 2)))
-            osc0.append(_mean(s0["oscillation"]))
-            osc1.append(_mean(s1["oscillation"]))
-            parts.append(f"γ={g:g}: {_mean(s0['plateau']):.3f} → {_mean(s1['plateau']):.3f} (×{r:.2f})")
-        if ratios:
-            claims.append(f"| Pocketing ({P} of N) more than doubles the plateau (Fig. 6.8) | plateau without → with "
-                          f"pocket: {'; '.join(parts)}"
-                          + "; a single trial with pocketing against a single trial without (every pair of seeds) "
-                          "more than doubles in " + ", ".join(f"{100 * x:.0f} %" for x in single) + " of pairs | "
-                          + _tally([r > 2 for r in ratios], f"mean ratio {min(ratios):.2f}–{max(ratios):.2f}; more "
-                                   "than 2") + " |")
-            claims.append("| ... and the residual oscillation is much reduced, in relative terms | relative "
-                          "oscillation (sd/mean of the best, last 50 gen.) without → with pocket: "
-                          + "; ".join(f"{a:.3g} → {b:.3g}" for a, b in zip(osc0, osc1, strict=True)) + " | "
-                          + _tally([b < a for a, b in zip(osc0, osc1, strict=True)], "lower") + " |")
-    # 3. large gamma plateaus early
-    if len(gammas) > 1:
-        lo, hi = gammas[0], gammas[-1]
-        for P in [0] + pockets[:1]:
-            cl, sl = find("ga", gamma=lo, pocket=P, crossover=False)
-            ch, sh = find("ga", gamma=hi, pocket=P, crossover=False)
-            if cl is None or ch is None:
-                continue
-            early = _mean(sh["t90"]) < _mean(sl["t90"])
-            lower = _mean(sh["plateau"]) < _mean(sl["plateau"])
-            claims.append(f"| Large γ saturates early, reaching a plateau (Fig. 6.7; pocket {P}) | γ={hi:g}: t90 "
-                          f"{_mean(sh['t90']):.0f}, plateau {_mean(sh['plateau']):.3f}; γ={lo:g}: t90 "
-                          f"{_mean(sl['t90']):.0f}, plateau {_mean(sl['plateau']):.3f} | "
-                          + _verdict(early, "plateaus earlier" + (" and lower" if lower else " (not lower)")
-                                     if early else "does not plateau earlier") + " |")
-    # 3b. smaller gamma, higher plateau (up to a point)
-    if len(gammas) > 2:
-        for P in [0] + pockets[:1]:
-            found = [(g, find("ga", gamma=g, pocket=P, crossover=False)[1]) for g in gammas]
-            found = [(g, s) for g, s in found if s is not None]
-            if len(found) < 3:
-                continue
-            pl = [_mean(s["plateau"]) for _, s in found]
-            top = found[int(np.argmax(pl))][0]
-            lowest_at_max = int(np.argmin(pl)) == len(pl) - 1
-            claims.append("| As γ decreases the fitness rises to higher plateaus, up to a point "
-                          f"(Fig. 6.7; pocket {P}) | "
-                          "plateau by γ: " + ", ".join(f"{g:g}: {p:.3f}" for (g, _), p in zip(found, pl, strict=True))
-                          + " | " + _verdict(lowest_at_max, f"lowest at γ={found[-1][0]:g}, highest at γ={top:g}"
-                                             if lowest_at_max else f"the largest γ is not the lowest (highest at "
-                                             f"γ={top:g})") + " |")
-    # 4. cross-over does not improve the performance within one trial
-    if pockets:
-        P = pockets[0]
-        parts, better = [], []
-        for g, s0, s1 in pairs({"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}):
-            d = _mean(s1["plateau"]) - _mean(s0["plateau"])
-            sd = float(np.sqrt((np.nanvar(s0["plateau"], ddof=1) + np.nanvar(s1["plateau"], ddof=1))
-                               / max(len(s0["plateau"]), 1)))
-            better.append(d > 2 * sd)
-            parts.append(f"γ={g:g}: {_mean(s0['plateau']):.3f} → {_mean(s1['plateau']):.3f}")
-        if parts:
-            claims.append("| Cross-over does not improve the performance over one trial (Fig. 6.9) | plateau "
-                          f"without → with cross-over (pocket {P}): {'; '.join(parts)} | "
-                          + _verdict(not any(better), "no significant gain (> 2 s.e.)" if not any(better)
-                                     else "cross-over is better for some γ") + " |")
-    # 4b. cross-over keeps oscillating near saturation even with a small mutation rate; more diverse populations
-    if pockets:
-        P = pockets[0]
-        without, with_ = {"pocket": P, "crossover": False}, {"pocket": P, "crossover": True}
-
-        def compare(metric: str) -> tuple[str, list[bool]]:
-            """Per γ, ``metric`` without → with cross-over, and whether it is larger with it."""
-            rows = [(g, _mean(s0[metric]), _mean(s1[metric])) for g, s0, s1 in pairs(without, with_)]
-            return "; ".join(f"γ={g:g}: {a:.3g} → {b:.3g}" for g, a, b in rows), [b > a for _, a, b in rows]
-
-        text, larger = compare("oscillation")
-        if larger:
-            claims.append("| With cross-over the fitness keeps oscillating near saturation, even for small mutation "
-                          f"rates (Fig. 6.9) | relative oscillation without → with cross-over (pocket {P}): "
-                          f"{text} | " + _tally(larger, "larger with cross-over") + " |")
-        text, more = compare("diversity")
-        if more:
-            claims.append("| With cross-over the last generations are more varied; without it they cluster around "
-                          "one set of parameters (Ch. 6.2.4) | genetic diversity (sd of a gene over the population, "
-                          f"mean over genes, last generations) without → with cross-over: {text} | "
-                          + _tally(more, "more diverse") + " |")
-    # 5-8. baselines
-    best_ga = max(ga_cells, key=lambda cs: _mean(cs[1]["best"]), default=(None, None))
-    cr, sr = find("random")
-    if best_ga[0] is not None and cr is not None:
-        r = _mean(best_ga[1]["best"]) / _mean(sr["best"])
-        span = [_mean(s["best"]) for _, s in ga_cells]
-        claims.append(f"| Random search: best ≈ half the GA's (Fig. 6.10) | best found: GA ({best_ga[0].label()}, "
-                      f"the best of {len(ga_cells)} GA settings; all of them: {min(span):.3f}–{max(span):.3f}) "
-                      f"{_mean(best_ga[1]['best']):.3f}, random {_mean(sr['best']):.3f} (GA ×{r:.2f}) | "
-                      + _verdict(1.5 <= r <= 3.0, f"ratio {r:.2f}" + ("" if 1.5 <= r <= 3.0 else
-                                 " (not about 2)")) + " |")
-    if cr is not None:
-        m = _mean(sr["mean_all"])
-        claims.append(f"| Random search: mean fitness ≈ 0 (Fig. 6.10) | mean of all samples {_ms(sr['mean_all'])} | "
-                      + _verdict(abs(m) < 0.02, f"{m:.4f}") + " |")
-    amcs = [(c, s) for c, s in stats if c.kind == "amc"]
-    if amcs:
-        ms = [_mean(s["mean_all"]) for _, s in amcs]
-        pos = [m > 0 for m in ms]
-        above = cr is not None and all(m > _mean(sr["mean_all"]) for m in ms)
-        claims.append("| Adaptive MC: positive mean, unlike random search (Fig. 6.11) | mean of samples: "
-                      + "; ".join(f"M={c.config.get('M')}: {m:.3f}" for (c, _), m in zip(amcs, ms, strict=True))
-                      + " | " + _verdict(all(pos), "positive for every M" if all(pos) else "not positive for every M")
-                      + (" and above random search's" if above else "") + " |")
-    if best_ga[0] is not None and (amcs or cr is not None):
-        others = amcs + ([(cr, sr)] if cr is not None else [])
-        c5 = next(((c, s) for c, s in amcs if c.config.get("M") == 5), None)
-        best_other = max(others, key=lambda cs: _mean(cs[1]["best"]))
-        r = _mean(best_ga[1]["best"]) / _mean(best_other[1]["best"])
-        txt = f"best found: GA {_mean(best_ga[1]['best']):.3f}; best other ({best_other[0].label()}) " \
-              f"{_mean(best_other[1]['best']):.3f} (GA ×{r:.2f})"
-        if c5 is not None:
-            txt += f"; AMC M=5 {_mean(c5[1]['best']):.3f} (GA ×{_mean(best_ga[1]['best']) / _mean(c5[1]['best']):.2f})"
-        claims.append(f"| GA outperforms the other methods roughly by a factor of 2 (Fig. 6.12) | {txt} | "
-                      + _verdict(r >= 1.5, f"GA ×{r:.2f} the best other method") + " |")
-    return "\n".join(lines + claims) + "\n"
+             *_setting_rows(stats),
+             "", "## The thesis's claims (Ch. 6.2-6.3) against this sweep", "",
+             "| thesis (Ch. 6.2-6.3) | measured here | verdict |", "|---|---|---|",
+             *[row for claim in CLAIMS for row in claim(ctx)]]
+    return "\n".join(lines) + "\n"
 
 
 def write_report(out_dir: str | os.PathLike[str], out: str | os.PathLike[str] | None = None) -> str:

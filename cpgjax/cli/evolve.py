@@ -47,7 +47,8 @@ def register(subparsers: Any) -> None:
                             "masses, servo gains, gene jitter; a fall ends the fitness) -- docs/evolution.md")
         p.add_argument("--perturb", type=o.perturbations, default=None, metavar="KEY=VALUE,...",
                        help="robust evaluation ranges, e.g. replicas=8,roughness=0.005 (defaults: replicas 4, "
-                            "lift 0.005 m, tilt 0.02 rad, roughness 0.003 m, friction/mass/gain 10/5/10 %%, "
+                            "lift 0.005 m, tilt 0.02 rad, roughness 0 m (e.g. 0.003: 1.8x slower), friction/mass/gain "
+                            "10/5/10 %%, "
                             "jitter 1e-3, fall_ends on)")
         p.add_argument("--seed", type=o.seed, default=None, help=f"random seed (default {d.seed})")
         p.add_argument("--chunk", type=o.count, default=None,

@@ -57,7 +57,8 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP) -> str:
         span = max(hmax - hmin, 1e-6)
         ET.SubElement(asset, "hfield", name="terrain", nrow=str(ny), ncol=str(nx),
                       size=f"{t.dx * (nx - 1) / 2:g} {t.dy * (ny - 1) / 2:g} {span:g} 0.1",
-                      elevation=_f((t.heights - hmin) / span))
+                      # MuJoCo's first elevation row is at +y, ours (heights[iy]) at -y: flip the rows
+                      elevation=_f(((t.heights - hmin) / span)[::-1]))
         cx, cy = t.x0 + t.dx * (nx - 1) / 2, t.y0 + t.dy * (ny - 1) / 2
         ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain", pos=f"{cx:g} {cy:g} {hmin:g}",
                       contype="1", conaffinity="1", friction=f"{mu:g} 0.005 0.0001", solref=solref)

@@ -49,8 +49,9 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
     """
     devs = jax.devices() if devices is None else devices
     N = coeffs.shape[0]
-    if N <= LANES:  # one SIMD vector of robots: a second device would only compute padding
-        devs = devs[:1]
+    # Always every device, even for a batch that fits one SIMD vector: a batch on one device ran inline
+    # in the caller's program, and XLA then fused the robust evaluation's inputs into it differently from
+    # a sharded batch (a sweep's run differed from the same run alone in the last bits).
     nd = len(devs)
     per_dev = -(-N // nd)
     ch = -(-min(chunk, per_dev) // LANES) * LANES

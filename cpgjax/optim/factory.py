@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.episode.batch import evaluate
+from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.episode.perturb import Perturbations, draw, roughened
@@ -131,8 +131,16 @@ def _robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float,
         g = jnp.asarray(genomes, jnp.float32)
         n = g.shape[0]
         k = jax.vmap(lambda kk: jax.random.split(kk, R))(keys).reshape(n * R)
+        # draw in whole SIMD vectors (see cpgjax.episode.batch.LANES): a robot's perturbations then do
+        # not depend on how many robots share the batch (a sweep's run equals the same run made alone)
+        pad = -(n * R) % LANES
+        k = jnp.concatenate([k, jnp.repeat(k[-1:], pad)]) if pad else k
         var, offsets = draw(model, p, k, G)
+        var, offsets = jax.tree.map(lambda a: a[..., : n * R], var), offsets[: n * R]
         g = jnp.clip(jnp.repeat(g, R, axis=0) + offsets, lo, hi)
+        # the barrier keeps XLA from fusing (and re-rounding) the draws into the simulation differently
+        # in different programs (cf. optim.algorithm.generation_step)
+        var, g = jax.lax.optimization_barrier((var, g))
         r = evaluate(model, g.reshape(-1, n_ctrl, n_coeff), time=T, delta=delta, chunk=chunk, var=var,
                      fall_ends=p.fall_ends)
         out = {}

@@ -66,3 +66,17 @@ def test_spearman():
     assert spearman([1, 2, 3, 4], [10, 20, 30, 40]) == pytest.approx(1.0)
     assert spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
     assert spearman([1, 2, 2, 3], [1, 2, 3, 4]) > 0.9
+
+
+def test_the_exported_heightfield_has_our_heights_where_we_have_them():
+    """A ray cast down in MuJoCo hits the ground at our terrain's height (a ramp, so a mirror image would show)."""
+    import mujoco
+
+    m = load_model("models/quadruped.wl", terrain="ramp:0.2")
+    mj = load(m)
+    d = mujoco.MjData(mj)
+    mujoco.mj_forward(mj, d)
+    geomid = np.zeros(1, np.int32)
+    for x, y in ((0.0, -2.0), (0.5, 0.0), (-1.0, 3.0), (1.0, 8.0)):
+        dist = mujoco.mj_ray(mj, d, np.array([x, y, 10.0]), np.array([0.0, 0.0, -1.0]), None, 1, -1, geomid)
+        assert abs((10.0 - dist) - float(m.terrain.height_np(np.array(x), np.array(y)))) < 2e-3, (x, y)

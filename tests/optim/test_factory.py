@@ -12,12 +12,12 @@ from cpgjax.optim.algorithm import eval_keys
 from cpgjax.optim.factory import make_problem
 
 WL = "models/quadruped.wl"
-P = Perturbations(replicas=3)
+P = Perturbations(replicas=3, roughness=0.003)
 
 
 @pytest.fixture(scope="module")
 def robust():
-    p = make_problem(WL, time=0.3, evaluation="robust", perturb={"replicas": 3})
+    p = make_problem(WL, time=0.3, evaluation="robust", perturb={"replicas": 3, "roughness": 0.003})
     return p, jax.jit(p.evaluate)
 
 

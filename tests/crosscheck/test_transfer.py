@@ -1,0 +1,49 @@
+"""`cpgjax transfer` (cpgjax/crosscheck/transfer.py): each run's best replayed here and in MuJoCo C, at tiny scale."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from cpgjax import cli
+from cpgjax.crosscheck import transfer
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("tr")
+    for ev in ("thesis", "robust"):
+        argv = ["evolve", "models/quadruped.wl", "--time", "0.5", "--population", "4", "--generations", "1",
+                "--evaluation", ev, "--out", str(d / f"{ev}.h5"), "--quiet"]
+        if ev == "robust":
+            argv += ["--perturb", "replicas=2"]
+        assert cli.main(argv) == 0
+    return d
+
+
+def test_transfer_table_json_and_figure(runs, tmp_path, capsys):
+    out = tmp_path / "out"
+    files = [str(runs / "thesis.h5"), str(runs / "robust.h5")]
+    assert cli.main(["transfer", *files, "--replays", "3", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "| thesis |" in text and "| robust |" in text and "carries over" in text
+    data = json.loads((out / "transfer.json").read_text())
+    assert data["summary"]["runs"] == 2 and set(data["summary"]) >= {"thesis", "robust"}
+    assert (out / "transfer.png").stat().st_size > 10_000 and (out / "transfer.md").exists()
+    assert cli.main(["transfer", *files, "--replays", "2", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    for mode in ("thesis", "robust"):
+        assert summary[mode]["runs"] == 1 and summary[mode]["mujoco_falls_mean"] <= 2
+
+
+def test_each_run_is_replayed_on_its_stored_model_and_settings(runs):
+    (r,) = transfer.replay_runs([runs / "thesis.h5"], replays=2)
+    # the same controller in our simulator scores what the GA recorded for it (thesis evaluation: exact replay)
+    assert r.ours["fitness"] == pytest.approx(r.fitness_in_run, abs=1e-7)
+    assert r.evaluation == "thesis" and r.ours_jit["falls"] + r.mujoco_jit["falls"] <= 4
+
+
+def test_bad_inputs_are_named(tmp_path, capsys):
+    assert cli.main(["transfer", str(tmp_path)]) == 2
+    assert "no run files" in capsys.readouterr().err
