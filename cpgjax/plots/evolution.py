@@ -36,6 +36,8 @@ def run_label(run: Run) -> str:
         parts = [f"AMC M={c.get('M')}"]
     else:
         parts = ["random search"]
+    if run.meta.get("evaluation", "thesis") != "thesis":
+        parts.append(f"{run.meta['evaluation']} evaluation")
     return f"{name} ({', '.join(parts)})"
 
 
