@@ -21,12 +21,13 @@ def test_thesis_figures_notebook_tiny(tmp_path):
             "--fig-dir", str(tmp_path / "figures"), "--out", str(executed)]
     assert cli.main(args) == 0
     figs = sorted(os.listdir(tmp_path / "figures"))
-    assert figs == sorted(f"fig-6-{i}.png" for i in range(5, 13))
+    assert figs == sorted([f"fig-6-{i}.png" for i in range(5, 13)] + ["best-gait.gif"])   # and the best gait, drawn
     assert all(os.path.getsize(tmp_path / "figures" / f) > 10_000 for f in figs)
     report = (tmp_path / "sweep" / "report.md").read_text()
     assert "more than doubles" in report and "factor of 2" in report
     text = executed.read_text()
     assert "scale tiny" in text and "Traceback" not in text
+    assert '"image/gif"' in text                     # the video is shown inline
     # a second execution finds the sweep complete and only redraws
     assert cli.main([*args, "--no-save"]) == 0
     assert os.environ.get("CPGJAX_SCALE") is None          # the settings do not leak into this process
