@@ -15,6 +15,7 @@ from collections.abc import Callable
 from typing import Any
 
 from cpgjax.errors import CpgjaxError
+from cpgjax.io.paths import first_existing
 
 MAX_TIME = 3600.0        # s: the longest episode an option accepts (the thesis's are 10 s)
 MAX_COUNT = 10_000_000   # a sane bound on populations, generations, samples, replays
@@ -148,20 +149,9 @@ TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[
 # --- outputs --------------------------------------------------------------------------------------
 
 
-def _first_existing(path: str) -> str:
-    """The nearest of ``path`` and its parents (as written) that exists."""
-    p = path
-    while not os.path.lexists(p):
-        parent = os.path.dirname(p)
-        if not parent or parent == p:
-            return parent or "."
-        p = parent
-    return p
-
-
 def _check_folder_chain(path: str, folder: str) -> None:
     """``folder`` (to hold ``path``) exists as a writable folder, or can be created in one."""
-    anc = _first_existing(folder or ".")
+    anc = first_existing(folder or ".")
     if not os.path.isdir(anc):
         raise CpgjaxError(f"{path}: cannot write there: {anc} is a file, not a folder")
     if not os.access(anc, os.W_OK | os.X_OK):

@@ -13,6 +13,7 @@ import tempfile
 
 import numpy as np
 
+from cpgjax.io.paths import first_existing
 from cpgjax.render import RenderError
 
 FORMATS = (".mp4", ".gif")
@@ -26,16 +27,6 @@ def video_format(path: str) -> str:
     return ext
 
 
-def _first_existing(folder: str) -> str:
-    p = folder or "."
-    while not os.path.lexists(p):
-        parent = os.path.dirname(p)
-        if not parent or parent == p:
-            return parent or "."
-        p = parent
-    return p
-
-
 def check_output(path: str) -> str:
     """Raise :class:`RenderError` (naming ``path``) if the video cannot be written there; returns its format.
 
@@ -47,7 +38,7 @@ def check_output(path: str) -> str:
     fmt = video_format(p)
     if os.path.lexists(p) and not os.access(p, os.W_OK):
         raise RenderError(f"{p}: cannot write: permission denied")
-    anc = _first_existing(os.path.dirname(p))
+    anc = first_existing(os.path.dirname(p))
     if not os.path.isdir(anc):
         raise RenderError(f"{p}: cannot write there: {anc} is a file, not a folder")
     if not os.access(anc, os.W_OK | os.X_OK):
