@@ -62,22 +62,63 @@ def contact_inverse_mass(model) -> np.ndarray:
 
 
 def _quad(K, u, v):
-    """``u^T K v`` for a static K [3, 3, nc, 1] and u, v [3, nc, B]."""
-    return sum(K[i, j] * u[i] * v[j] for i in range(3) for j in range(3))
+    """``u^T K v`` for a static symmetric K [3, 3, nc] and u, v [3, nc, B].
+
+    K is known when the model is built: the terms of entries that are zero for every vertex (a foot
+    on its link's axis has a diagonal K) are left out, and the symmetric pairs are summed once.
+    """
+    out = None
+    for i in range(3):
+        for j in range(i, 3):
+            if not np.any(K[i, j]):
+                continue
+            uv = u[i] * v[j] if (i == j or u is v) else u[i] * v[j] + u[j] * v[i]
+            term = K[i, j][:, None] * uv
+            if i != j and u is v:
+                term = 2.0 * term
+            out = term if out is None else out + term
+    return out if out is not None else jnp.zeros_like(u[0])
+
+
+class _Frame:
+    """The terrain's contact frame (normal n, tangents t1, t2) under the vertices, as component maps.
+
+    On flat ground the frame is the world's (t1, t2, n) = (x, y, z): components are slices and no
+    multiplication by the constant 0s and 1s is emitted (XLA does not fold ``0 * x`` for floats).
+    """
+
+    def __init__(self, n=None, t1=None, t2=None):
+        self.n, self.t1, self.t2 = n, t1, t2
+
+    def comp(self, v):
+        """(v.n, v.t1, v.t2) of a world vector [3, ...]."""
+        if self.n is None:
+            return v[2], v[0], v[1]
+        return dot(v, self.n), dot(v, self.t1), dot(v, self.t2)
+
+    def world(self, fn, f1, f2):
+        """The world vector fn n + f1 t1 + f2 t2."""
+        if self.n is None:
+            return jnp.stack([f1, f2, fn])
+        return fn * self.n + f1 * self.t1 + f2 * self.t2
+
+    def in_body(self, Rc):
+        """n, t1, t2 in the vertices' body frames (R^T n, ...) [3, nc, B] each."""
+        if self.n is None:
+            return Rc[2], Rc[0], Rc[1]
+        return matTvec(Rc, self.n), matTvec(Rc, self.t1), matTvec(Rc, self.t2)
 
 
 def _frame(model, cp, var):
-    """Depth [nc, B], normal and two tangents [3, nc, B] of the terrain under the contact vertices."""
+    """Depth [nc, B] and the :class:`_Frame` of the terrain under the contact vertices."""
     if model.terrain.flat:  # fast path: z_g = 0, n = (0, 0, 1), no lookup
-        zero = jnp.zeros_like(cp[2])
-        one = zero + 1.0
-        return -cp[2], jnp.stack([zero, zero, one]), jnp.stack([one, zero, zero]), jnp.stack([zero, one, zero])
+        return -cp[2], _Frame()
     sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
     zg, n = height_and_normal(model.terrain, cp[0] + sx, cp[1] + sy)
     n = jnp.stack(n)
     inv = 1.0 / jnp.sqrt(n[0] ** 2 + n[2] ** 2)
     t1 = jnp.stack([n[2] * inv, jnp.zeros_like(zg), -n[0] * inv])
-    return (zg - cp[2]) * n[2], n, t1, cross(n, t1)
+    return (zg - cp[2]) * n[2], _Frame(n, t1, cross(n, t1))
 
 
 def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
@@ -100,7 +141,7 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     cp, rc = p[:, model.ct_pt], r[:, model.ct_pt]
     if len(cb) == 0:                             # a model without contact vertices
         return cp, cp[0], anchor, f_prev
-    depth, n, t1, t2 = _frame(model, cp, var)
+    depth, fr = _frame(model, cp, var)
     touch = depth > 0
     tf = touch.astype(depth.dtype)
     share = []                                  # touching vertices of the vertex's body (>= 1)
@@ -111,21 +152,22 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     inv_m = np.where(model.fixed[cb], 0.0, 1.0 / model.mass[cb])[:, None]
     if var is not None:                          # a body s times as heavy: K / s
         share = share / var.mass[cb]
-    K = contact_inverse_mass(model)[:, :, :, None]
+    K = contact_inverse_mass(model)
     Rc = R[:, :, cb]
-    nb_, t1b, t2b = matTvec(Rc, n), matTvec(Rc, t1), matTvec(Rc, t2)
+    nb_, t1b, t2b = fr.in_body(Rc)
     vstar = pv[:, model.ct_pt] + dt * (a[:, cb] + cross(alpha[:, cb], rc))
     # normal
     kn = share * _quad(K, nb_, nb_)
     A, B = model.ground_A, model.ground_B
     fa = A * depth
-    vn = dot(vstar, n) + dt * kn * fa + dt * (share * inv_m - kn) * f_prev
+    vs_n, vs_1, vs_2 = fr.comp(vstar)
+    vn = vs_n + dt * kn * fa + dt * (share * inv_m - kn) * f_prev
     fn = jnp.where(touch, jnp.maximum(fa - B * vn / (1.0 + dt * B * kn), 0.0), 0.0)
     # friction: f = -(K + I/(dt b'))^-1 (v* + k z / b') / dt,  b' = b + k dt (the bristle implicit too)
     z = cp - anchor
     bp = FRICTION_B + FRICTION_K * dt
-    w = vstar + (FRICTION_K / bp) * z
-    s1, s2 = dot(w, t1), dot(w, t2)
+    z_n, z_1, z_2 = fr.comp(z)
+    s1, s2 = vs_1 + (FRICTION_K / bp) * z_1, vs_2 + (FRICTION_K / bp) * z_2
     reg = 1.0 / (dt * bp)
     k11 = share * _quad(K, t1b, t1b) + reg
     k12 = share * _quad(K, t1b, t2b)
@@ -138,10 +180,12 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
         mu_s, mu_d = mu_s * var.friction, mu_d * var.friction
     stick = jnp.sqrt(f1 * f1 + f2 * f2) <= mu_s * fn
     vmag = jnp.sqrt(s1 * s1 + s2 * s2 + 1e-20)
-    ft = jnp.where(stick, f1 * t1 + f2 * t2, -(mu_d * fn / vmag) * (s1 * t1 + s2 * t2))
+    slide = -(mu_d * fn / vmag)
+    f1, f2 = jnp.where(stick, f1, slide * s1), jnp.where(stick, f2, slide * s2)
     # the anchor: fixed while sticking; sliding, it trails the vertex so the bristle holds at most mu_d f
-    zt = z - dot(z, n) * n
-    zmag = jnp.sqrt(dot(zt, zt) + 1e-18)
+    zmag = jnp.sqrt(z_1 * z_1 + z_2 * z_2 + 1e-18)
     lim = mu_d * fn / FRICTION_K
-    new_anchor = jnp.where(touch, jnp.where(stick, anchor, cp - zt * jnp.minimum(1.0, lim / zmag)), cp)
-    return jnp.where(touch, fn * n + ft, 0.0), depth, new_anchor, fn
+    trail = jnp.minimum(1.0, lim / zmag)
+    trailed = cp - fr.world(jnp.zeros_like(z_n), trail * z_1, trail * z_2)
+    new_anchor = jnp.where(touch, jnp.where(stick, anchor, trailed), cp)
+    return jnp.where(touch, fr.world(fn, f1, f2), 0.0), depth, new_anchor, fn
