@@ -1,4 +1,4 @@
-"""The ``bench`` and ``study-dt`` subcommands of ``cpgjax``: speed, and the time-step study."""
+"""The ``bench``, ``study-dt`` and ``study-friction`` subcommands of ``cpgjax``: speed, and the simulator's studies."""
 
 from __future__ import annotations
 
@@ -39,6 +39,39 @@ def register(subparsers: Any) -> None:
     d.add_argument("--out", help="write the table as markdown here too")
     d.set_defaults(func=cmd_study_dt)
 
+    f = subparsers.add_parser("study-friction", help="the friction bristle: steadiness of the score vs agreement "
+                                                     "with MuJoCo C (docs/simulator.md)")
+    f.add_argument("--model", default=model, help="robot description (default: the quadruped)")
+    f.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
+                   help="the controller to jitter (default: the hand-written trot)")
+    f.add_argument("--springs", type=_springs, default=[(1e3, 300.0), (1e4, 1e3), (1e5, 300.0), (1e5, 1e3)],
+                   help="bristles K:B, comma-separated (default 1e3:300,1e4:1e3,1e5:300,1e5:1e3; "
+                        "the simulator's default is 1e3:300)")
+    f.add_argument("--runs", nargs="*", default=[], metavar="RUN.h5|SWEEP_DIR",
+                   help="evolved runs: their bests are replayed here and in MuJoCo C")
+    f.add_argument("--replays", type=o.count, default=64, help="jittered replays of --ctl (default 64)")
+    f.add_argument("--jitter", type=float, default=1e-6, help="sd of the gene offsets (default 1e-6)")
+    f.add_argument("--random", type=int, default=8, help="random controllers in the Spearman set (default 8)")
+    f.add_argument("--perturbed", type=int, default=16,
+                   help="--ctl with N(0, 0.1) added, in the Spearman set (default 16)")
+    f.add_argument("--time", type=o.seconds, default=10.0, help="simulated seconds per episode (default 10)")
+    f.add_argument("--out", help="write the table as markdown here too")
+    f.add_argument("--json", action="store_true", help="print one JSON object (the rows) instead of the table")
+    f.set_defaults(func=cmd_study_friction)
+
+
+def _springs(text: str) -> list[tuple[float, float]]:
+    out = []
+    for part in text.split(","):
+        try:
+            k, b = (float(x) for x in part.split(":"))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected K:B pairs like 1e3:300,1e5:1e3, got {part!r}") from None
+        if not (k > 0 and b >= 0):
+            raise argparse.ArgumentTypeError(f"a bristle needs K > 0 and B >= 0, got {part!r}")
+        out.append((k, b))
+    return out
+
 
 def cmd_bench(args: argparse.Namespace) -> int:
     from cpgjax.experiments import bench
@@ -58,4 +91,24 @@ def cmd_study_dt(args: argparse.Namespace) -> int:
 
     o.check_output_file(args.out)
     timestep_study(args.model, args.ctl, list(args.dts), time_s=args.time, out=args.out)
+    return 0
+
+
+def cmd_study_friction(args: argparse.Namespace) -> int:
+    import json
+
+    from cpgjax.experiments.studies import friction_study, friction_table
+
+    o.check_output_file(args.out)
+    show = None if args.json else (lambda r: print(f"  k {r['k']:g} b {r['b']:g}: trot sd {r['trot_sd']:.4f}, "
+                                                   f"ratio {r['ratio_median']:.2f}, rho {r['rho']:+.2f}", flush=True))
+    rows = friction_study(args.model, args.ctl, args.springs, runs=args.runs, replays=args.replays,
+                          jitter=args.jitter, n_random=args.random, n_perturbed=args.perturbed, time_s=args.time,
+                          progress=show)
+    text = friction_table(rows)
+    if args.out:
+        with open(args.out, "w") as fh:
+            fh.write(text + "\n")
+    clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()} for r in rows]
+    print(json.dumps({"rows": clean}) if args.json else text)
     return 0

@@ -28,9 +28,6 @@ import numpy as np
 from cpgjax.sim.rotation import cross, dot, matTvec
 from cpgjax.sim.terrain import height_and_normal
 
-FRICTION_K = 1.0e3  # N/m    bristle spring: static friction holds (no viscous creep)
-FRICTION_B = 300.0  # N s/m  viscous friction below the Coulomb cap (implicit)
-
 
 def contact_body_ranges(model) -> list[tuple[int, int, int]]:
     """``(body, lo, hi)`` for each body with contacts: contacts ``lo:hi`` belong to it (contiguous)."""
@@ -165,9 +162,10 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     fn = jnp.where(touch, jnp.maximum(fa - B * vn / (1.0 + dt * B * kn), 0.0), 0.0)
     # friction: f = -(K + I/(dt b'))^-1 (v* + k z / b') / dt,  b' = b + k dt (the bristle implicit too)
     z = cp - anchor
-    bp = FRICTION_B + FRICTION_K * dt
+    kb = model.friction_k                       # the bristle: static friction holds (no creep)
+    bp = model.friction_b + kb * dt
     z_n, z_1, z_2 = fr.comp(z)
-    s1, s2 = vs_1 + (FRICTION_K / bp) * z_1, vs_2 + (FRICTION_K / bp) * z_2
+    s1, s2 = vs_1 + (kb / bp) * z_1, vs_2 + (kb / bp) * z_2
     reg = 1.0 / (dt * bp)
     k11 = share * _quad(K, t1b, t1b) + reg
     k12 = share * _quad(K, t1b, t2b)
@@ -184,7 +182,7 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     f1, f2 = jnp.where(stick, f1, slide * s1), jnp.where(stick, f2, slide * s2)
     # the anchor: fixed while sticking; sliding, it trails the vertex so the bristle holds at most mu_d f
     zmag = jnp.sqrt(z_1 * z_1 + z_2 * z_2 + 1e-18)
-    lim = mu_d * fn / FRICTION_K
+    lim = mu_d * fn / kb
     trail = jnp.minimum(1.0, lim / zmag)
     trailed = cp - fr.world(jnp.zeros_like(z_n), trail * z_1, trail * z_2)
     new_anchor = jnp.where(touch, jnp.where(stick, anchor, trailed), cp)

@@ -143,6 +143,7 @@ class Description:
     time_step: float | None = None  # None: the simulator's default (from the stability study)
     ground: tuple[float, float] = (1.0e5, 1.0e3)  # A [kg/s^2], B [kg/s] (eq. 3.7)
     joint_spring: tuple[float, float] | None = None  # alpha [N/m], beta [N s/m] (eq. 3.6); None: default
+    friction_spring: tuple[float, float] | None = None  # friction bristle k [N/m], b [N s/m]; None: default
     servo: ServoDef = field(default_factory=ServoDef)
     terrain: TerrainDef = field(default_factory=TerrainDef)
     track: str | None = None  # body whose motion is scored (default: first root body)

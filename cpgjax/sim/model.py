@@ -29,6 +29,11 @@ from cpgjax.sim.terrain import Terrain, make_terrain
 DEFAULT_DT = 5.0e-4
 DEFAULT_ALPHA = 3.0e5  # N/m   joint pivot spring (eq. 3.6)
 DEFAULT_BETA = 300.0  # N s/m joint pivot damper (eq. 3.6)
+# The friction bristle (sim.contact): soft, so that a walking robot's score is not chaotic; a stiffer one
+# brings evolved gaits closer to MuJoCo's on average but makes the score chaotic again
+# (docs/simulator.md, "The friction bristle: a trade-off").
+DEFAULT_FRICTION_K = 1.0e3  # N/m
+DEFAULT_FRICTION_B = 300.0  # N s/m
 AXIS_WIDTH = 0.04  # m: distance between the two pivot springs of a revolute joint
 LIMIT_STIFFNESS = 300.0  # N m / rad beyond a joint limit
 LIMIT_DAMPING = 3.0  # N m s / rad beyond a joint limit
@@ -85,6 +90,8 @@ class Model:
     mu_dynamic: float
     alpha: float
     beta: float
+    friction_k: float  # friction bristle spring [N/m] and damper [N s/m] (sim.contact)
+    friction_b: float
     dt: float
     terrain: Terrain
     track: int  # body whose motion is scored and logged by default
@@ -348,6 +355,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         next((i for i, n in enumerate(names) if n not in children), 0))
     A, B = desc.ground
     alpha, beta = desc.joint_spring or (DEFAULT_ALPHA, DEFAULT_BETA)
+    friction_k, friction_b = desc.friction_spring or (DEFAULT_FRICTION_K, DEFAULT_FRICTION_B)
     tdef = desc.terrain
     return Model(
         body_names=tuple(names), mass=mass, inertia=inertia, inv_inertia=inv_inertia,
@@ -365,7 +373,8 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         gravity=float(desc.gravity), ground_A=float(A), ground_B=float(B),
         mu_static=float(desc.friction),
         mu_dynamic=float(desc.friction_dynamic if desc.friction_dynamic is not None else desc.friction),
-        alpha=float(alpha), beta=float(beta), dt=float(dt or desc.time_step or DEFAULT_DT),
+        alpha=float(alpha), beta=float(beta), friction_k=float(friction_k), friction_b=float(friction_b),
+        dt=float(dt or desc.time_step or DEFAULT_DT),
         terrain=make_terrain(terrain) if terrain else make_terrain(tdef),
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc,

@@ -34,6 +34,8 @@ BAD_WL = [
     ("binary-later-line", b"TimeMax 2\n\xff\xfe\n", 2, "not a UTF-8 text file"),
     ("nul-bytes", "TimeMax 2\nLog\x00Rate 2\n", 2, "not a text file (it holds NUL bytes)"),
     ("latin-1", "# caf\xe9\n".encode("latin-1") + OBJ.encode(), 1, "not a UTF-8 text file"),
+    ("friction-spring-zero", "TimeMax 2\nFrictionSpring 0 300\n" + OBJ, 2,
+     "FrictionSpring needs K > 0 (bristle spring, N/m) and B >= 0 (its damper, N s/m), got 0 300"),
     ("ramp-too-steep", "Terrain ramp 2\n" + OBJ, 1, "ramp slope is an angle in radians, |SLOPE| < pi/2, got 2"),
     ("bump-zero-width", "Terrain bump 0.1 1 0\n" + OBJ, 1, "bump WIDTH must be positive (metres along y), got 0"),
     ("bump-narrow", "Terrain bump 0.1 1 0.001\n" + OBJ, 1, "bump WIDTH must be between 0.01 m"),

@@ -199,8 +199,8 @@ def test_defaults_when_settings_are_absent():
     d = parse_wl("Object A {\n Type Cube\n Mass 1\n Dimensions 1 1 1\n}\n")
     ref = Description()
     for f in ("time_max", "simulate", "display", "text_only", "log_rate", "friction", "friction_dynamic",
-              "gravity", "time_step", "ground", "joint_spring", "servo", "terrain", "track", "harmonics",
-              "frequency"):
+              "gravity", "time_step", "ground", "joint_spring", "friction_spring", "servo", "terrain", "track",
+              "harmonics", "frequency"):
         assert getattr(d, f) == getattr(ref, f), f
     assert d.path == "<string>" and d.joints == [] and d.logs == []
 
@@ -270,7 +270,8 @@ def _strip(d: Description) -> dict:
 @pytest.mark.parametrize("text", [SMALL, THESIS_EXCERPT + EXCERPT_FILLER,
                                   "Terrain matrix 2 2 0 1 0 1 { 0 1\n 2 3 }\nObject A {\n Type Sphere\n Mass 1\n"
                                   " Dimensions .1\n}\n",
-                                  "Terrain rough 0.02 0.1 3\nJointSpring 2e4 50\nTimeStep 1e-4\nObject A {\n"
+                                  "Terrain rough 0.02 0.1 3\nJointSpring 2e4 50\nFrictionSpring 1e5 1e3\n"
+                                  "TimeStep 1e-4\nObject A {\n"
                                   " Type Sphere\n Mass 1\n Dimensions .1\n}\n"])
 def test_format_round_trip(tmp_path, text):
     d = parse_wl(text)

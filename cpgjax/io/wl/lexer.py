@@ -39,6 +39,7 @@ TOP_KEYWORDS: dict[str, str] = {
     "TimeStep": "TimeStep SECONDS",
     "Ground": "Ground A B",
     "JointSpring": "JointSpring ALPHA BETA",
+    "FrictionSpring": "FrictionSpring K B",
     "Servo": "Servo KP KI KD TAUMAX",
     "Terrain": ("Terrain flat | ramp SLOPE [X|Y] | bump HEIGHT Y [WIDTH] | rough RANGE [CELL [SEED]] | "
                 "matrix NX NY X0 X1 Y0 Y1 { rows }"),

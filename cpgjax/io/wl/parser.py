@@ -151,6 +151,12 @@ class _Parser(StatementReader):
                 raise self.err(st.line, f"JointSpring needs ALPHA > 0 (N/m) and BETA >= 0 (N s/m), "
                                         f"got {a:g} {b:g}")
             d.joint_spring = (a, b)
+        elif kw == "FrictionSpring":
+            k, b = self.numbers(st, kw, usage, 2)
+            if k <= 0 or b < 0:
+                raise self.err(st.line, f"FrictionSpring needs K > 0 (bristle spring, N/m) and B >= 0 "
+                                        f"(its damper, N s/m), got {k:g} {b:g}")
+            d.friction_spring = (k, b)
         elif kw == "Servo":
             d.servo = self.servo(st)
         elif kw == "Terrain":

@@ -43,6 +43,8 @@ def format_wl(desc: Description) -> str:
     out.append(f"Ground {_v(desc.ground)}")
     if desc.joint_spring is not None:
         out.append(f"JointSpring {_v(desc.joint_spring)}")
+    if desc.friction_spring is not None:
+        out.append(f"FrictionSpring {_v(desc.friction_spring)}")
     s = desc.servo
     out.append(f"Servo {_v((s.kp, s.ki, s.kd, s.tau_max))}")
     t = desc.terrain
