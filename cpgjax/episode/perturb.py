@@ -13,6 +13,11 @@ episodes, each with fresh perturbations drawn per robot from its own key:
   placed at a random spot of it;
 * the robot as built: friction coefficients, each body's mass and inertia, and each servo's gains
   scaled by ``1 + U(-x, x)`` (``friction``, ``mass``, ``gain``);
+* the foot's compliance (off by default): the friction bristle's spring ``k`` (``FrictionSpring``) scaled
+  by ``10^U(0, bristle)``, from the model's soft default up to ``bristle`` decades stiffer: the soft
+  bristle lets a gait store and return energy in centimetres of elastic foot slip that MuJoCo's
+  friction does not have (docs/simulator.md), and a gait that must work at every stiffness cannot
+  live on it;
 * the controller: every gene moved by ``U(-sqrt(3) jitter, sqrt(3) jitter)`` (standard deviation
   ``jitter``; clipped to the search box).
 
@@ -48,12 +53,13 @@ class Perturbations:
     mass: float = 0.05         # relative: each body's mass and inertia
     gain: float = 0.1          # relative: each servo's kp, ki, kd
     jitter: float = 1e-3       # rad: sd of the gene jitter
+    bristle: float = 0.0       # decades: the friction bristle's k scaled by 10^U(0, bristle)
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
 
     def __post_init__(self) -> None:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
-        for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter"):
+        for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -91,9 +97,12 @@ def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
     u = lambda k, shape, r: jax.lax.optimization_barrier(  # noqa: E731
         r * jax.random.uniform(k, shape, jnp.float32, -1.0, 1.0))
     shift = jnp.stack([u(ks[0], (), SHIFT[0]), u(ks[1], (), SHIFT[1])]) if p.roughness > 0 else jnp.zeros(2)
+    # the bristle's draw has its own key (folded in), so that adding it left every other draw as it was
+    decades = 0.5 * p.bristle * (1.0 + u(jax.random.fold_in(key, 8), (), 1.0))
     return (Variation(friction=1.0 + u(ks[2], (), p.friction), mass=1.0 + u(ks[3], (model.nb,), p.mass),
                       gain=1.0 + u(ks[4], (model.n_ctrl,), p.gain), shift=shift,
-                      lift=u(ks[5], (), p.lift), tilt=u(ks[6], (2,), p.tilt)),
+                      lift=u(ks[5], (), p.lift), tilt=u(ks[6], (2,), p.tilt),
+                      bristle=jnp.power(10.0, jax.lax.optimization_barrier(decades))),
             u(ks[7], (n_genes,), float(np.sqrt(3.0)) * p.jitter))
 
 

@@ -163,6 +163,8 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     # friction: f = -(K + I/(dt b'))^-1 (v* + k z / b') / dt,  b' = b + k dt (the bristle implicit too)
     z = cp - anchor
     kb = model.friction_k                       # the bristle: static friction holds (no creep)
+    if var is not None:
+        kb = kb * var.bristle
     bp = model.friction_b + kb * dt
     z_n, z_1, z_2 = fr.comp(z)
     s1, s2 = vs_1 + (kb / bp) * z_1, vs_2 + (kb / bp) * z_2

@@ -1,8 +1,8 @@
 """Per-robot variation of the physics: each robot of a batch built and placed a little differently.
 
 The :class:`~cpgjax.sim.model.Model` is one nominal robot; a :class:`Variation` holds, per robot
-of the batch (batch-last arrays), scale factors on its friction coefficients, body masses and
-inertias and servo gains, a shift of where it stands on the terrain, and an offset of its initial
+of the batch (batch-last arrays), scale factors on its friction coefficients, friction bristle, body
+masses and inertias and servo gains, a shift of where it stands on the terrain, and an offset of its initial
 pose.  ``Variation.nominal(model, B)`` is the identity (all scales 1, no shift, no offset); the
 simulator with it computes exactly what it computes without one.
 
@@ -28,10 +28,11 @@ class Variation(NamedTuple):
     shift: jax.Array      # [2, B] where the robot stands on the terrain: (x, y) offset of the lookup, m
     lift: jax.Array       # [B]   initial height offset of the whole robot, m
     tilt: jax.Array       # [2, B] initial roll and pitch of the whole robot about its tracked body's CM, rad
+    bristle: jax.Array    # [B]   scale of the friction bristle's spring k (``FrictionSpring``, sim.contact)
 
     @staticmethod
     def nominal(model, batch: int, dtype=jnp.float32) -> Variation:
         one = jnp.ones((batch,), dtype)
         return Variation(friction=one, mass=jnp.ones((model.nb, batch), dtype),
                          gain=jnp.ones((model.n_ctrl, batch), dtype), shift=jnp.zeros((2, batch), dtype),
-                         lift=jnp.zeros((batch,), dtype), tilt=jnp.zeros((2, batch), dtype))
+                         lift=jnp.zeros((batch,), dtype), tilt=jnp.zeros((2, batch), dtype), bristle=one)

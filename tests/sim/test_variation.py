@@ -67,3 +67,24 @@ def test_initial_tilt_and_lift_turn_the_whole_robot_rigidly():
     dx = np.asarray(s1.x[:, m.track] - s0.x[:, m.track])
     np.testing.assert_allclose(dx[:, 0], 0.0, atol=1e-7)
     np.testing.assert_allclose(dx[:, 1], [0.0, 0.0, 0.004], atol=1e-7)
+
+
+def test_bristle_scale_is_a_stiffer_friction_spring():
+    """A robot with ``bristle`` 100 runs as the model with a 100x stiffer ``FrictionSpring``; the draws of
+    ``Perturbations(bristle=D)`` lie in [1, 10^D], and with D = 0 they are exactly 1."""
+    from cpgjax.episode.perturb import Perturbations, draw
+
+    m = load_model("models/quadruped.wl")
+    stiff = m.replace(friction_k=m.friction_k * 100.0)
+    c = jnp.asarray(np.random.default_rng(1).uniform(-0.5, 0.5, (m.n_ctrl, m.n_coeff, 2)), jnp.float32)
+    var = Variation.nominal(m, 2)._replace(bristle=jnp.asarray([1.0, 100.0]))
+    got = jax.jit(lambda v: rollout(m, c, time=0.5, var=v))(var)
+    soft = jax.jit(lambda: rollout(m, c, time=0.5))()
+    hard = jax.jit(lambda: rollout(stiff, c, time=0.5))()
+    d = np.asarray(got["distance"])
+    np.testing.assert_allclose(d, [float(soft["distance"][0]), float(hard["distance"][1])], atol=1e-4)
+    assert abs(float(soft["distance"][1]) - float(hard["distance"][1])) > 1e-3   # the bristle matters
+    keys = jax.random.split(jax.random.PRNGKey(0), 256)
+    b = np.asarray(draw(m, Perturbations(bristle=2.0), keys, 40)[0].bristle)
+    assert b.min() >= 1.0 and b.max() <= 100.0 and b.max() > 30 and b.min() < 3
+    assert np.all(np.asarray(draw(m, Perturbations(), keys, 40)[0].bristle) == 1.0)
