@@ -174,14 +174,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from cpgjax.experiments.evolve import deferred_sigint
 
     with deferred_sigint():
+        if args.workers is not None and args.ray is None:
+            raise ValueError("--workers is for --ray")
         specs, pa = build_specs(args)
         if args.dry_run:
             for s in specs:
                 print(f"{s.path}  {s.kind}  seed {s.seed}")
             print(f"{len(specs)} runs, {sweep.total_batch(specs)} evaluations per sweep generation")
             return 0
-        if args.workers is not None and args.ray is None:
-            raise ValueError("--workers is for --ray")
         if args.ray is not None:
             from cpgjax.experiments.sweep import cluster
 
