@@ -58,24 +58,17 @@ def test_two_workers_write_the_files_of_the_sweep_in_one_process(local_ray, tmp_
     assert len(workers) == 2 and len({w["pid"] for w in workers}) == 2
     assert sum(w["runs"] for w in workers) == 3 and sum(w["evaluations"] for w in workers) == 3 * 4 * 2
     assert all(w["devices"] >= cluster.MIN_DEVICES for w in workers)
-    # a finished sweep on Ray is skipped as a whole; report and best work on its files unchanged
-    s = cluster.run_on_ray({"model": WL, "time": 0.3}, specs_of(there), workers=2, progress=False)
-    assert s["skipped"] == 3 and s["evaluations"] == 0
+    # report and best work on its files unchanged
     assert cli.main(["report", there, "--out", str(tmp_path / "r.md")]) == 0
     run = sweepdir.find_runs(there)["ga_n4_mu0.2_g0.1_p2_xoff"][0]
     assert cli.main(["best", run, "--ctl", str(tmp_path / "b.ctl")]) == 0
-
-
-def specs_of(out):
-    return sweep.plan(out, sweep.ga_grid(gamma=(0.1,), pocket=(0, 2), population=(4,), generations=2)
-                      + sweep.baseline_cells(["random"], samples=8, batch=4), [0])
 
 
 def test_worker_killed_mid_sweep_is_retried_and_resumes_to_the_uninterrupted_files(local_ray, tmp_path):
     """SIGKILL the worker of shard 0 while it runs; Ray retries its task, which resumes its runs from their
     files; the sweep's files equal those of the same sweep never interrupted (in one process)."""
     pa = {"model": "analytic:sphere:10"}
-    cells = sweep.ga_grid(gamma=(0.0, 1.0), pocket=(0, 2), population=(4,), generations=150)
+    cells = sweep.ga_grid(gamma=(0.0, 1.0), pocket=(2,), population=(4,), generations=60)
     killed: dict[str, int] = {}
 
     def kill_shard0(info):
@@ -92,7 +85,7 @@ def test_worker_killed_mid_sweep_is_retried_and_resumes_to_the_uninterrupted_fil
     assert killed, "shard 0 finished before its worker could be killed"
     assert killed.get("after") not in (None, killed["pid"]), "the task was not run again in a new worker"
     assert sweep.complete(specs)
-    assert s["evaluations"] < len(specs) * 4 * 150          # the retry did not start its runs again
+    assert s["evaluations"] < len(specs) * 4 * 60          # the retry did not start its runs again
     ref = str(tmp_path / "ref")
     rspecs = sweep.plan(ref, cells, [0, 1])
     sweep.run_sweep(sweep.sweep_problem(pa), rspecs, progress=False)
