@@ -40,7 +40,7 @@ def same_sweeps(a, b):
 @pytest.fixture(scope="module")
 def local_ray():
     """One local Ray instance (2 CPUs) for the module: starting Ray takes seconds."""
-    ray = pytest.importorskip("ray")
+    import ray  # make test installs the [cluster] extra
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, configure_logging=False,
              object_store_memory=100 * 2**20)
     yield ray
@@ -68,7 +68,7 @@ def test_worker_killed_mid_sweep_is_retried_and_resumes_to_the_uninterrupted_fil
     """SIGKILL the worker of shard 0 while it runs; Ray retries its task, which resumes its runs from their
     files; the sweep's files equal those of the same sweep never interrupted (in one process)."""
     pa = {"model": "analytic:sphere:10"}
-    cells = sweep.ga_grid(gamma=(0.0, 1.0), pocket=(2,), population=(4,), generations=60)
+    cells = sweep.ga_grid(gamma=(0.0, 1.0), pocket=(2,), population=(4,), generations=80)
     killed: dict[str, int] = {}
 
     def kill_shard0(info):
@@ -85,7 +85,7 @@ def test_worker_killed_mid_sweep_is_retried_and_resumes_to_the_uninterrupted_fil
     assert killed, "shard 0 finished before its worker could be killed"
     assert killed.get("after") not in (None, killed["pid"]), "the task was not run again in a new worker"
     assert sweep.complete(specs)
-    assert s["evaluations"] < len(specs) * 4 * 60          # the retry did not start its runs again
+    assert s["evaluations"] < len(specs) * 4 * 80          # the retry did not start its runs again
     ref = str(tmp_path / "ref")
     rspecs = sweep.plan(ref, cells, [0, 1])
     sweep.run_sweep(sweep.sweep_problem(pa), rspecs, progress=False)
