@@ -122,3 +122,21 @@ def test_ray_without_the_extra_is_named(tmp_path, monkeypatch, capsys):
     assert "pip install -e .[cluster]" in capsys.readouterr().err
     assert not os.path.exists(out)
     assert cli.main(["sweep", "analytic:sphere:10", "--out", out, "--workers", "2", "--dry-run"]) == 2
+
+
+def test_a_refused_run_in_a_task_is_named_as_in_one_process(local_ray, tmp_path, capsys):
+    """A cpgjax error raised in a Ray task (here: a file made with other settings) reaches the user as itself."""
+    import h5py
+
+    out = str(tmp_path / "s")
+    argv = ["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "1", "--out", out,
+            "--quiet"]
+    assert cli.main(argv) == 0
+    run = os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff", "s0.h5")
+    with h5py.File(run, "a") as f:
+        cfg = json.loads(f.attrs["config"])
+        cfg["init_spread"] = 0.3
+        f.attrs["config"] = json.dumps(cfg)
+    capsys.readouterr()
+    assert cli.main([*argv, "--ray"]) == 2
+    assert "cannot resume" in capsys.readouterr().err
