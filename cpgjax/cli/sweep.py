@@ -3,7 +3,8 @@
 ``cpgjax sweep MODEL.wl --gamma 0,0.01,0.1,1 --pocket 0,4 [--crossover off,on] [--population 20]
 [--seeds 5] [--generations 150] [--baselines random,amc3,amc5,amc10] --out runs/NAME/`` runs every
 combination and seed batched into one XLA program (:mod:`cpgjax.experiments.sweep`); ``--preset full|tiny``
-runs the thesis experiment of Fig. 6.5-6.12 instead.  ``cpgjax report runs/NAME/`` writes
+runs the thesis experiment of Fig. 6.5-6.12 instead; ``--ray [ADDRESS]`` runs the sweep's shards as Ray
+tasks (:mod:`cpgjax.experiments.sweep.cluster`).  ``cpgjax report runs/NAME/`` writes
 ``runs/NAME/report.md`` (final fitness per cell, mean ± sd over seeds, and the thesis's claims
 of Ch. 6.2-6.3 checked) and prints it.
 """
