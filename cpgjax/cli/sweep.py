@@ -3,7 +3,8 @@
 ``cpgjax sweep MODEL.wl --gamma 0,0.01,0.1,1 --pocket 0,4 [--crossover off,on] [--population 20]
 [--seeds 5] [--generations 150] [--baselines random,amc3,amc5,amc10] --out runs/NAME/`` runs every
 combination and seed batched into one XLA program (:mod:`cpgjax.experiments.sweep`); ``--preset full|tiny``
-runs the thesis experiment of Fig. 6.5-6.12 instead.  ``cpgjax report runs/NAME/`` writes
+runs the thesis experiment of Fig. 6.5-6.12 instead; ``--ray [ADDRESS]`` runs the sweep's shards as Ray
+tasks (:mod:`cpgjax.experiments.sweep.cluster`).  ``cpgjax report runs/NAME/`` writes
 ``runs/NAME/report.md`` (final fitness per cell, mean ± sd over seeds, and the thesis's claims
 of Ch. 6.2-6.3 checked) and prints it.
 """
@@ -101,6 +102,13 @@ def register(subparsers: Any) -> None:
     p.add_argument("--chunk", type=o.count, default=d.chunk, help=f"generations per jitted chunk (default {d.chunk})")
     p.add_argument("--group", choices=("all", "kind"), default="all",
                    help="all runs in one program (default) or one program per group of same-shaped runs")
+    p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                   help="run the sweep's shards as Ray tasks (pip install -e .[cluster]): without ADDRESS on a "
+                        "local Ray instance, with one (e.g. 10.0.0.1:6379 or auto) on that cluster; OUT must be "
+                        "a folder every node sees (docs/sweeps.md)")
+    p.add_argument("--workers", type=o.count, default=None,
+                   help="--ray: number of shards (tasks), each with CPUs/N cores (default: one per node, "
+                        "sized by its CPUs)")
     p.add_argument("--overwrite", action="store_true", help="start every run anew")
     p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -167,18 +175,31 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from cpgjax.experiments.evolve import deferred_sigint
 
     with deferred_sigint():
+        if args.workers is not None and args.ray is None:
+            raise ValueError("--workers is for --ray")
         specs, pa = build_specs(args)
         if args.dry_run:
             for s in specs:
                 print(f"{s.path}  {s.kind}  seed {s.seed}")
             print(f"{len(specs)} runs, {sweep.total_batch(specs)} evaluations per sweep generation")
             return 0
+        if args.ray is not None:
+            from cpgjax.experiments.sweep import cluster
+
+            cluster.require_ray()                      # the named extra, before anything is written
         o.check_output_dir(args.out)
         try:
-            problem = sweep.sweep_problem(pa, batch=sweep.total_batch(specs))
-            sweep.write_manifest(args.out, specs, pa)
-            summary = sweep.run_sweep(problem, specs, chunk=args.chunk, overwrite=args.overwrite,
-                                      progress=not args.quiet, group=args.group)
+            if args.ray is not None:
+                sweep.sweep_problem(pa)                # bad settings are refused here, not in every task
+                sweep.write_manifest(args.out, specs, pa)
+                summary = cluster.run_on_ray(pa, specs, address=args.ray or None, workers=args.workers,
+                                             chunk=args.chunk, overwrite=args.overwrite,
+                                             progress=not args.quiet, group=args.group)
+            else:
+                problem = sweep.sweep_problem(pa, batch=sweep.total_batch(specs))
+                sweep.write_manifest(args.out, specs, pa)
+                summary = sweep.run_sweep(problem, specs, chunk=args.chunk, overwrite=args.overwrite,
+                                          progress=not args.quiet, group=args.group)
         except KeyboardInterrupt:
             from cpgjax.cli.evolve import resume_command
 
@@ -188,6 +209,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
           f"{summary['evaluations']} evaluations in {summary['wall_time']:.1f} s "
           f"(compile {summary['compile_time']:.1f} s); steady state "
           f"{summary['evals_per_second']:.4g} evaluations/s, {summary['cores_busy']:.2f} cores busy")
+    for w in summary.get("workers", []):
+        print(f"  worker {w['shard']} ({w['host']}, pid {w['pid']}, {w['devices']} devices): {w['runs']} runs, "
+              f"{w['evaluations']} evaluations, {w['evals_per_second']:.4g} evaluations/s")
     with open(os.path.join(args.out, "sweep-timing.jsonl"), "a") as f:
         f.write(json.dumps({**summary, "argv": sys.argv[1:]}) + "\n")
     return 0

@@ -26,6 +26,9 @@ def register(subparsers: Any) -> None:
                    help="evaluations/s of one GA run vs the thesis sweep (cpgjax sweep --preset full) in one program")
     b.add_argument("--generations", type=o.count, default=5, help="--sweep: generations per run (default 5)")
     b.add_argument("--seeds", type=o.count, default=5, help="--sweep: seeds per cell (default 5: 80 runs)")
+    b.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                   help="--sweep: the sweep in process vs on Ray (local instance, or the cluster at ADDRESS)")
+    b.add_argument("--workers", type=o.count, default=2, help="--sweep --ray: Ray workers (default 2)")
     b.set_defaults(func=cmd_bench)
 
     d = subparsers.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
@@ -77,7 +80,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from cpgjax.experiments import bench
 
     batches = tuple(args.batches)
-    if args.sweep:
+    if args.ray is not None and not args.sweep:
+        raise ValueError("--ray is for --sweep (cpgjax bench --sweep --ray)")
+    if args.sweep and args.ray is not None:
+        bench.bench_sweep_ray(args.model, time_s=args.time, generations=args.generations, seeds=args.seeds,
+                              workers=args.workers, address=args.ray or None)
+    elif args.sweep:
         bench.bench_sweep(args.model, time_s=args.time, generations=args.generations, seeds=args.seeds)
     elif args.against:
         bench.bench_against_mjx(args.model, batches=batches, time_s=args.time, chunk=args.chunk)

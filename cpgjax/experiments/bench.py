@@ -283,3 +283,64 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
     ratio = rows[1]["evals_s"] / rows[0]["evals_s"]
     print(f"\nsweep / one run: {ratio:.2f}x evaluations per second")
     return {"rows": rows, "ratio": ratio}
+
+
+def bench_sweep_ray(model_path: str, *, time_s: float = 2.0, generations: int = 5, seeds: int = 5,
+                    preset: str = "full", workers: int = 2, address: str | None = None,
+                    progress: bool = True) -> dict:
+    """Evaluations per second of the thesis sweep in this process against the same sweep on Ray, side by side.
+
+    (1) the cells of ``cpgjax sweep --preset PRESET`` x ``seeds`` in one program, in process (every core
+    a host device); (2) the same runs as ``workers`` Ray tasks (``cpgjax sweep --ray --workers N``), on a
+    local Ray instance (or the cluster at ``address``).  "steady" is evaluations per second once
+    compiled (Ray: the workers' rates summed); "end to end" is every evaluation over the whole wall time,
+    Ray's start, the workers' start-up and compilation included: their difference is Ray's overhead.
+    """
+    import dataclasses
+    import tempfile
+
+    from cpgjax.experiments import sweep
+    from cpgjax.experiments.sweep import cluster
+    from cpgjax.optim import ga
+
+    cluster.require_ray()
+    print(f"machine: {machine()}")
+    print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run, {seeds} seeds")
+    pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None}
+    cells = []
+    for c in sweep.thesis_cells(preset):
+        if isinstance(c, ga.GAConfig):
+            cells.append(dataclasses.replace(c, generations=generations))
+        else:
+            cells.append(dataclasses.replace(c, samples=c.batch * generations))
+    rows = []
+    with tempfile.TemporaryDirectory() as d:
+        specs = sweep.plan(os.path.join(d, "here"), cells, range(seeds))
+        t0 = time.perf_counter()
+        s = sweep.run_sweep(sweep.sweep_problem(pa, batch=sweep.total_batch(specs)), specs, progress=progress)
+        wall = time.perf_counter() - t0
+        rows.append({"label": "in process, one program", "runs": len(specs), "evals": s["evaluations"],
+                     "steady": s["evals_per_second"], "e2e": s["evaluations"] / wall, "wall": wall,
+                     "compile": s["compile_time"], "start": 0.0, "busy": s["cores_busy"]})
+        specs = sweep.plan(os.path.join(d, "ray"), cells, range(seeds))
+        r = cluster.run_on_ray(pa, specs, address=address, workers=workers, progress=progress)
+        rows.append({"label": f"Ray, {len(r['workers'])} workers ({address or 'local'})", "runs": len(specs),
+                     "evals": r["evaluations"], "steady": r["evals_per_second"],
+                     "e2e": r["evals_per_second_end_to_end"], "wall": r["wall_time"], "compile": r["compile_time"],
+                     "start": r["ray_start"], "busy": r["cores_busy"]})
+    print()
+    for x in rows:        # CPU seconds, unlike wall seconds, do not depend on what else the machine runs
+        x["per_cpu"] = x["steady"] / x["busy"] if x["busy"] > 0 else float("nan")
+    print(f"load average while measuring: {os.getloadavg()[0]:.1f} (on {os.cpu_count()} cores)")
+    print("| what | runs | evaluations | Ray start [s] | compile [s] | wall [s] | steady evaluations/s | "
+          "cores busy | evaluations per CPU-s | end-to-end evaluations/s |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for x in rows:
+        print(f"| {x['label']} | {x['runs']} | {x['evals']} | {x['start']:.1f} | {x['compile']:.1f} | "
+              f"{x['wall']:.1f} | {x['steady']:,.1f} | {x['busy']:.2f} | {x['per_cpu']:,.1f} | {x['e2e']:,.1f} |")
+    a, b = rows
+    print(f"\nRay / in process: {b['per_cpu'] / a['per_cpu']:.2f}x evaluations per CPU-s, "
+          f"{b['steady'] / a['steady']:.2f}x steady, {b['e2e'] / a['e2e']:.2f}x end to end; "
+          f"wall {b['wall'] - a['wall']:+.1f} s ({b['start']:.1f} s of it Ray's start)")
+    print(f"per-core throughput (in process): {a['per_cpu']:,.1f} evaluations per CPU-s")
+    return {"rows": rows, "per_core": a["per_cpu"]}

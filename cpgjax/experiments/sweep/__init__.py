@@ -1,8 +1,9 @@
 """Sweeps: many GA / baseline runs (settings x seeds) batched into one XLA program (docs/sweeps.md).
 
 :mod:`~cpgjax.experiments.sweep.plan` — cells, seeds, names and files, the thesis experiment;
-:mod:`~cpgjax.experiments.sweep.driver` — the batched driver.  Reading a sweep back is in
-:mod:`cpgjax.io.sweepdir`; its report in :mod:`cpgjax.analysis.report`.
+:mod:`~cpgjax.experiments.sweep.driver` — the batched driver;
+:mod:`~cpgjax.experiments.sweep.cluster` — its shards as Ray tasks (``--ray``, imported on demand).
+Reading a sweep back is in :mod:`cpgjax.io.sweepdir`; its report in :mod:`cpgjax.analysis.report`.
 """
 
 from cpgjax.experiments.sweep.driver import eval_chunk, run_sweep, sweep_problem, write_manifest
