@@ -21,7 +21,7 @@ import sys
 
 from cpgjax.cli.options import Parser
 
-GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep")
+GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability")
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
