@@ -59,7 +59,7 @@ def conditions(bumps, roughs, seeds: int, seed0: int = 0) -> list[Condition]:
 def _rough(level: float, seed: int, nx: int, ys: np.ndarray) -> np.ndarray:
     """A rough field [len(ys), nx]: uniform in [0, level] on ROUGH_CELL rows, linear along y between them."""
     y0, y1 = ys[0], ys[-1]
-    rows = np.arange(np.floor(y0 / ROUGH_CELL), np.ceil(y1 / ROUGH_CELL) + 1) * ROUGH_CELL
+    rows = np.arange(np.floor(y0 / ROUGH_CELL + 1e-6), np.ceil(y1 / ROUGH_CELL - 1e-6) + 1) * ROUGH_CELL
     step = int(round(ROUGH_CELL / CELL_X))
     cols = (nx - 1) // step + 1
     coarse = np.random.default_rng(seed).uniform(0.0, level, size=(len(rows), cols))
