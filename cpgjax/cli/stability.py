@@ -16,7 +16,6 @@ import argparse
 import json
 import os
 import re
-import sys
 from typing import Any
 
 from cpgjax.cli import options as o
@@ -153,6 +152,13 @@ def _population(args) -> int:
                "groups": study.groups, "settings": study.summary(), "config": study.config}
     ranking = sorted(study.labels, key=lambda lab: summary["settings"][lab]["fall_perturbed"])
     summary["most_robust"] = ranking[0]
+    from cpgjax.io.ctl import write_ctl
+
+    summary["picks"] = {}
+    for name, p in study.picks.items():     # the thesis's stable and unstable controller, for the figures
+        path = os.path.join(args.out, f"{name}.ctl")
+        write_ctl(path, p["coeffs"], p["ga_fitness"], exact=True)
+        summary["picks"][name] = {"ctl": path, **{k: v for k, v in p.items() if k != "coeffs"}}
     with open(os.path.join(args.out, "population.json"), "w") as f:
         json.dump(summary, f, indent=1)
     fall_probability(study).savefig(os.path.join(args.out, "population.png"), dpi=110)
@@ -165,5 +171,8 @@ def _population(args) -> int:
     else:
         print(text)
         print(f"most robust (lowest fall probability over all perturbations): {ranking[0]}")
-        print(f"wrote {args.out}/population.json, population.md, population.png", file=sys.stdout)
+        for name, p in summary["picks"].items():
+            print(f"{name}: {p['ctl']} (from {p['run']}; GA fitness {p['ga_fitness']:.4f}, mean S on flat ground "
+                  f"{p['S_flat']:.4f})")
+        print(f"wrote {args.out}/population.json, population.md, population.png, stable.ctl, unstable.ctl")
     return 0

@@ -143,12 +143,17 @@ def perturbation_experiment(model, coeffs: np.ndarray, names: list[str], cfg: St
     """Controllers [C, n, 2K+1] on flat ground, bumps and rough fields, all in one batch (Figs. 6.13-6.21)."""
     coeffs = np.asarray(coeffs, np.float32)
     C = coeffs.shape[0]
-    flat = simulate(model, coeffs, time=cfg.time, delta=cfg.delta)
     conds = conditions(cfg.bumps, cfg.roughs, cfg.seeds)
     K = len(conds)
     ci, lane = np.meshgrid(np.arange(C), np.arange(K), indexing="ij")
     ci, lane = ci.ravel(), lane.ravel()
-    r = run_course(model, coeffs[ci], lane, conds, np.asarray(flat["distance"], float)[ci], cfg, progress=progress)
+    if K == 1:      # flat ground only (Fig. 6.19): the model's own ground, nothing to place
+        r = jax.tree.map(np.asarray, _runner(model, cfg.time, cfg.delta)(jnp.asarray(coeffs), None))
+        flat = r
+    else:
+        flat = simulate(model, coeffs, time=cfg.time, delta=cfg.delta)
+        r = run_course(model, coeffs[ci], lane, conds, np.asarray(flat["distance"], float)[ci], cfg,
+                       progress=progress)
     inner, outer = schedule(model, cfg.time)
     t = (np.arange(outer) + 1) * inner * model.dt
     S = r["S"].T.reshape(C, K, -1)
@@ -202,6 +207,7 @@ class PopulationStudy:
     S_mean: list[np.ndarray]       # per cell [runs, groups]
     controllers: int               # controllers scored per run
     config: dict = field(default_factory=dict)
+    picks: dict = field(default_factory=dict)   # the thesis's pair (choose_stable_unstable): coeffs and scores
 
     def summary(self) -> dict:
         out = {}
@@ -244,10 +250,9 @@ def run_files(paths) -> list[str]:
     return out
 
 
-def controllers_of(run, which: str = "final", top: int | None = None) -> np.ndarray:
-    """Genomes of a run to score: its final population (``final``) or the best of each generation (``best``).
-
-    ``top``: only the ``top`` fittest of them (None: all).
+def controllers_of(run, which: str = "final", top: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(genomes, GA fitness) of a run to score: its final population (``final``) or the best of each generation
+    (``best``).  ``top``: only the ``top`` fittest of them (None: all).
     """
     v = run.valid_fitness()
     g = run.completed
@@ -260,8 +265,8 @@ def controllers_of(run, which: str = "final", top: int | None = None) -> np.ndar
         raise ValueError(f"which must be final or best, got {which!r}")
     if top is not None and top < len(f):
         order = np.argsort(np.where(np.isfinite(f), -f, np.inf), kind="stable")[:top]
-        G = G[order]
-    return G
+        G, f = G[order], f[order]
+    return G, f
 
 
 def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: str = "final", top: int | None = None,
@@ -287,9 +292,10 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
                 raise ValueError(f"{r.path}: a different model or episode from {runs[0].path}: "
                                  "study one model at a time")
             runs.append(r)
-    genomes = [controllers_of(r, which, top) for r in runs]
-    n = min(len(g) for g in genomes)
-    coeffs = np.concatenate([g[:n] for g in genomes]).reshape(-1, model.n_ctrl, model.n_coeff).astype(np.float32)
+    picked = [controllers_of(r, which, top) for r in runs]
+    n = min(len(g) for g, _ in picked)
+    coeffs = np.concatenate([g[:n] for g, _ in picked]).reshape(-1, model.n_ctrl, model.n_coeff).astype(np.float32)
+    fitness = np.concatenate([f[:n] for _, f in picked])
     cfg = StabilityConfig(**{**asdict(cfg), "time": cfg.time if cfg.time is not None else time})
     res = perturbation_experiment(model, coeffs, [f"r{i}c{j}" for i in range(len(runs)) for j in range(n)], cfg,
                                   progress=progress)
@@ -303,6 +309,10 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
         out_f.append(fall_g[i:i + k])
         out_s.append(S_g[i:i + k])
         i += k
+    stable, unstable = choose_stable_unstable(fitness, res.S_mean[:, 0], res.fell.any(axis=1))
+    picks = {name: {"coeffs": coeffs[i], "ga_fitness": float(fitness[i]), "run": runs[i // n].path,
+                    "S_flat": float(res.S_mean[i, 0]), "fell": {g: float(res.fell[i, ks].mean()) for g, ks in groups}}
+             for name, i in (("stable", stable), ("unstable", unstable))}
     return PopulationStudy(labels=[c.label() for c in cells], configs=[c.config for c in cells],
                            groups=[g for g, _ in groups], fall=out_f, S_mean=out_s, controllers=n,
-                           config={**asdict(cfg), "which": which, "top": top, "runs": len(runs)})
+                           config={**asdict(cfg), "which": which, "top": top, "runs": len(runs)}, picks=picks)

@@ -87,7 +87,9 @@ def test_population_study_of_a_sweep_folder(tmp_path, capsys):
     assert set(s["settings"]) == {"γ=0", "γ=1"}
     for v in s["settings"].values():
         assert v["runs"] == 2 and 0 <= v["fall"]["bump 3 cm"]["mean"] <= 1
-    assert sorted(os.listdir(out)) == ["population.json", "population.md", "population.png"]
+    assert sorted(os.listdir(out)) == ["population.json", "population.md", "population.png", "stable.ctl",
+                                       "unstable.ctl"]
+    assert s["picks"]["stable"]["ga_fitness"] > 0
 
 
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
