@@ -151,7 +151,8 @@ def _population(args) -> int:
     summary = {"inputs": args.inputs, "controllers_per_run": study.controllers, "which": args.which,
                "groups": study.groups, "settings": study.summary(), "config": study.config}
     ranking = sorted(study.labels, key=lambda lab: summary["settings"][lab]["fall_perturbed"])
-    summary["most_robust"] = ranking[0]
+    falls = [summary["settings"][lab]["fall_perturbed"] for lab in ranking]
+    summary["most_robust"] = ranking[0] if len(ranking) == 1 or falls[0] < falls[1] else None   # None: a tie
     from cpgjax.io.ctl import write_ctl
 
     summary["picks"] = {}
@@ -170,7 +171,8 @@ def _population(args) -> int:
         print(json.dumps(summary))
     else:
         print(text)
-        print(f"most robust (lowest fall probability over all perturbations): {ranking[0]}")
+        print("most robust (lowest fall probability over all perturbations): "
+              + (summary["most_robust"] or f"none: a tie at {falls[0]:.2f}"))
         for name, p in summary["picks"].items():
             print(f"{name}: {p['ctl']} (from {p['run']}; GA fitness {p['ga_fitness']:.4f}, mean S on flat ground "
                   f"{p['S_flat']:.4f})")
