@@ -36,7 +36,8 @@ def _chunked(model, inputs, chunk, **kw):
         return jnp.moveaxis(a, -2, 0)
 
     out = jax.lax.map(lambda cv: rollout(model, cv[0], var=cv[1], **kw), jax.tree.map(split, inputs))
-    return jax.tree.map(lambda a: jnp.moveaxis(a, 0, -2).reshape(a.shape[1:-1] + (-1,)), out)
+    # robots first (for shard_map's out_specs; a no-op on the [N] results), batch-last again in `evaluate`
+    return jax.tree.map(lambda a: jnp.moveaxis(jnp.moveaxis(a, 0, -2).reshape(a.shape[1:-1] + (-1,)), -1, 0), out)
 
 
 def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
@@ -45,7 +46,8 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
     Pads N to a multiple of ``devices * chunk`` (repeating the last controller), splits the
     robots across host devices with `shard_map`, and runs `rollout` in chunks on each.
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (batch-last, [..., N]),
-    padded and split with the robots.  Returns the dict of `rollout` (without trajectories), each [N].
+    padded and split with the robots.  Returns the dict of `rollout` (without trajectories), each [..., N]
+    (``[N]`` for the scores; ``[samples, N]`` for the series of ``stability_series=True``).
     """
     devs = jax.devices() if devices is None else devices
     N = coeffs.shape[0]
@@ -67,7 +69,7 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
         specs = jax.tree.map(lambda a: P(*([None] * (a.ndim - 1)), "d"), x)
         fn = jax.shard_map(fn, mesh=mesh, in_specs=(specs,), out_specs=P("d"), check_vma=False)
     out = fn(x)
-    return jax.tree.map(lambda a: a[:N], out)
+    return jax.tree.map(lambda a: jnp.moveaxis(a[:N], 0, -1), out)
 
 
 def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 256):

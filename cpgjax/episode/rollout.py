@@ -16,6 +16,7 @@ import jax.numpy as jnp
 
 from cpgjax.episode.cpg import targets
 from cpgjax.episode.fitness import stability
+from cpgjax.episode.support import projection_stability
 from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.rotation import quat_to_mat
 from cpgjax.sim.state import State, initial_state, sim_time, varied_initial_state
@@ -57,8 +58,31 @@ def _up_cos(model, q):
 FALL_TILT = math.radians(60.0)
 
 
+def probe(model, s: State, R, p, var, delta):
+    """The two stability measures of one sample (thesis Ch. 6.4): vestibular S(theta) and projection.
+
+    Vestibular: eq. 6.2 on the tracked body's tilt.  Projection (:mod:`cpgjax.episode.support`): the signed
+    distance of the whole robot's CM, projected on the ground, to the support polygon of the contact vertices
+    touching the terrain (depth > 0, the contact law's own test), over the CM's height above the terrain
+    under it; NaN with fewer than three vertices down.  Returns (S, projection, vertices down), each [B].
+    """
+    m = jnp.asarray(model.mass, s.x.dtype)[:, None]
+    if var is not None:
+        m = m * var.mass
+    cm = jnp.sum(m * s.x, axis=1) / jnp.sum(m, axis=0)            # [3, B]
+    cp = p[:, model.ct_pt]                                         # [3, nc, B]
+    sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
+    if model.terrain.flat:
+        zc, zcm = jnp.zeros_like(cp[2]), jnp.zeros_like(cm[2])
+    else:
+        zc, _ = height_and_normal(model.terrain, cp[0] + sx, cp[1] + sy)
+        zcm, _ = height_and_normal(model.terrain, cm[0] + sx, cm[1] + sy)
+    proj, n_down = projection_stability(cp[0], cp[1], zc - cp[2] > 0, (cm[0], cm[1], cm[2] - zcm))
+    return stability(_up_cos(model, s.q), delta), proj, n_down
+
+
 def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None, forward=1, var=None,
-            fall_ends=False):
+            fall_ends=False, stability_series=False):
     """Run B robots with CPG coefficients [n_ctrl, 2K+1, B]; returns a dict of [B] arrays.
 
     Keys: fitness (eq. 4.6, mean of eq. 4.5), distance (forward, m), speed (distance/T),
@@ -71,6 +95,10 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     divided by the whole episode's length).
     With ``record=True`` also ``traj``: x, q [S, ., nb, B], angle, target [S, n, B], t [S], with
     S = samples + 1: t = 0, 1/LogRate, ..., T.
+    With ``stability_series=True`` (thesis Ch. 6.4, :func:`probe`) also, computed in the scan at every
+    log sample: ``S`` and ``proj`` [samples, B] (vestibular and projection stability, NaN where the
+    latter is undefined), ``S_mean``, ``proj_mean`` (over the defined samples; NaN if none), ``proj_min``
+    and ``proj_undefined`` (the number of samples with fewer than three vertices down).
     """
     inner, outer = schedule(model, time, log_rate)
     T = inner * outer * model.dt
@@ -89,6 +117,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
 
     def outer_body(carry, _):
         s, acc = carry
+        prev = acc
         zero = jnp.zeros((B,), coeffs.dtype)
         (s_new, fit), _ = jax.lax.scan(inner_body, (s, zero), None, length=inner)
         ok = _healthy(s_new) & ~acc["diverged"]
@@ -114,7 +143,15 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             "pivot_err": jnp.maximum(acc["pivot_err"], jnp.where(ok, piv, 0.0)),
             "depth": jnp.maximum(acc["depth"], jnp.where(ok, depth, 0.0)),
         }
-        return (s_new, acc), (sample(s_new, R) if record else None)
+        out = sample(s_new, R) if record else None
+        if stability_series:
+            S_t, proj_t, _ = probe(model, s_new, R, p, var, delta)
+            defined = jnp.isfinite(proj_t)
+            acc.update(S=prev["S"] + S_t, proj=prev["proj"] + jnp.where(defined, proj_t, 0.0),
+                       proj_n=prev["proj_n"] + defined,
+                       proj_min=jnp.minimum(prev["proj_min"], jnp.where(defined, proj_t, jnp.inf)))
+            out = (out, {"S": S_t, "proj": proj_t})
+        return (s_new, acc), out
 
     def sample(s, R):
         angle, _, _ = joint_angles(model, R, s.w)
@@ -125,7 +162,11 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     z = jnp.zeros((B,), coeffs.dtype)
     acc0 = {"fit": z, "tilt": z, "height": z, "fallen": z < 0, "diverged": z < 0, "pivot_err": z, "depth": z,
             "down": z < 0}
+    if stability_series:
+        acc0.update(S=z, proj=z, proj_n=jnp.zeros((B,), jnp.int32), proj_min=z + jnp.inf)
     (s_end, acc), traj = jax.lax.scan(outer_body, (s0, acc0), None, length=outer)
+    if stability_series:
+        traj, series = traj
     dist = s_end.x[fwd, model.track] - s0.x[fwd, model.track]
     fitness = acc["fit"] * dt / T
     res = {
@@ -139,6 +180,11 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         "pivot_err": acc["pivot_err"],
         "depth": acc["depth"],
     }
+    if stability_series:
+        n = acc["proj_n"]
+        res.update(S=series["S"], proj=series["proj"], S_mean=acc["S"] / outer,
+                   proj_mean=jnp.where(n > 0, acc["proj"] / jnp.maximum(n, 1), jnp.nan),
+                   proj_min=jnp.where(n > 0, acc["proj_min"], jnp.nan), proj_undefined=outer - n)
     if record:   # the first sample is the initial state, at t = 0
         res["traj"] = jax.tree.map(lambda a0, a: jnp.concatenate([a0[None], a]), sample(s0, quat_to_mat(s0.q)), traj)
     return res

@@ -42,3 +42,19 @@ def test_a_failing_notebook_names_the_error(tmp_path, capsys):
     nbformat.write(nb, str(path))
     assert cli.main(["notebook", str(path), "--no-save"]) == 1
     assert "no sweep here" in capsys.readouterr().err
+
+
+def test_stability_notebook_tiny(tmp_path):
+    pytest.importorskip("nbclient")
+    pytest.importorskip("ipykernel")
+    executed = tmp_path / "executed.ipynb"
+    args = ["notebook", os.path.join(ROOT, "notebooks", "stability.ipynb"), "--scale", "tiny",
+            "--sweep-dir", str(tmp_path / "sweep"), "--fig-dir", str(tmp_path / "figures"), "--out", str(executed)]
+    assert cli.main(args) == 0
+    figs = sorted(os.listdir(tmp_path / "figures"))
+    want = [f"fig-6-{i}.png" for i in range(13, 22)] + ["population.png", "claims.md", "population.md"]
+    assert figs == sorted(want)
+    claims = (tmp_path / "figures" / "claims.md").read_text()
+    assert "hexapod" in claims and claims.count("**") >= 16        # a verdict in every row
+    text = executed.read_text()
+    assert "scale tiny" in text and "Traceback" not in text

@@ -1,0 +1,61 @@
+"""The perturbation experiments' ground (cpgjax/episode/courses.py): lanes, bumps, rough fields, placement."""
+
+import numpy as np
+import pytest
+
+from cpgjax.episode.batch import simulate
+from cpgjax.episode.courses import CELL_Y, LANE, ROUGH_CELL, conditions, course, placement
+from cpgjax.io.ctl import read_ctl
+from cpgjax.io.wl import load_model
+from cpgjax.sim.terrain import height_and_normal
+
+QUAD = "models/quadruped.wl"
+TROT = "models/quadruped-trot.ctl"
+
+
+def test_a_bump_of_zero_is_flat_ground_bit_for_bit():
+    flat, bump0 = load_model(QUAD), load_model(QUAD, terrain="bump:0")
+    assert flat.terrain.flat and not bump0.terrain.flat       # the heightfield path, not the flat fast path
+    c = read_ctl(TROT, n_dof=8, harmonics=2).coeffs
+    a = simulate(flat, c, time=0.5, record=True)
+    b = simulate(bump0, c, time=0.5, record=True)
+    for k in ("fitness", "distance", "tilt", "height", "depth"):
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    for k in ("x", "q", "v", "w", "angle"):
+        np.testing.assert_array_equal(a["traj"][k], b["traj"][k], err_msg=k)
+
+
+def _h(terrain, x, y):
+    z, _ = height_and_normal(terrain, np.asarray([x], np.float32), np.asarray([y], np.float32))
+    return float(z[0])
+
+
+def test_lanes_hold_their_ground():
+    conds = conditions([0.02], [0.03], seeds=2)
+    assert [c.label for c in conds] == ["flat", "bump 2 cm", "rough 3 cm #0", "rough 3 cm #1"]
+    t = course(conds, (-2.0, 4.0), bump_y=1.0, bump_width=0.3)
+    assert _h(t, 0.3, 1.15) == 0.0                                       # lane 0: flat
+    assert _h(t, LANE + 0.3, 1.15) == pytest.approx(0.02)                # lane 1: on the bump
+    assert _h(t, LANE + 0.3, 0.9) == 0.0 and _h(t, LANE + 0.3, 1.4) == 0.0   # before and after it
+    # lane 2 at a roughness grid node: the seeded uniform draw of the `rough:` terrain's grid
+    rows = np.arange(np.floor((-2.0) / ROUGH_CELL), np.ceil(4.0 / ROUGH_CELL) + 1)
+    draw = np.random.default_rng(0).uniform(0.0, 0.03, size=(len(rows), int(LANE / ROUGH_CELL)))
+    iy = int(np.nonzero(rows == 10)[0][0])                               # y = 1.0 m
+    assert _h(t, 2 * LANE - LANE / 2 + 3 * ROUGH_CELL, 1.0) == pytest.approx(draw[iy, 3], abs=1e-6)
+    hs = t.heights[:, 2 * 60:4 * 60]
+    assert hs.min() >= 0 and hs.max() <= 0.03 and not np.array_equal(hs[:, :60], hs[:, 60:])   # two fields
+    assert t.dy == pytest.approx(CELL_Y)
+
+
+def test_placement_meets_the_bump_halfway_and_lifts_rough_robots():
+    conds = conditions([0.02], [0.03], seeds=1)
+    lane = np.array([0, 1, 1, 1, 2])
+    d = np.array([2.0, 2.0, 0.1, -2.0, 2.0])
+    shift, lift, (lo, hi) = placement(conds, lane, d, 0.0, 5.0, 0.3, reach=(0.25, 0.25))
+    np.testing.assert_allclose(shift[0], lane * LANE)
+    assert shift[1, 0] == 0 and shift[1, 4] == 0
+    assert 1.0 + shift[1, 1] == pytest.approx(5.0)                        # body at 1 m (half of 2) meets y = 5
+    assert 0.3 + shift[1, 2] == pytest.approx(5.0)                        # not closer than the feet + 5 cm
+    assert -1.0 + shift[1, 3] == pytest.approx(5.3)                       # backwards: meets the far edge
+    np.testing.assert_allclose(lift, [0, 0, 0, 0, 0.03], rtol=1e-6)
+    assert lo <= -2.0 + 6.0 - 1.5 + 1e-6 and hi >= 2.0 + 1.5 - 1e-6

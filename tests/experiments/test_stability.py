@@ -1,0 +1,98 @@
+"""Stability under perturbation (cpgjax/experiments/stability.py, ``cpgjax stability``): Figs. 6.13-6.21."""
+
+from __future__ import annotations
+
+import json
+import os
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from cpgjax import cli
+from cpgjax.experiments.stability import StabilityConfig, choose_stable_unstable, perturbation_experiment
+from cpgjax.io.ctl import read_ctl
+from cpgjax.io.results import Row, RunWriter, create_run
+from cpgjax.io.wl import load_model
+
+QUAD = "models/quadruped.wl"
+TROT = "models/quadruped-trot.ctl"
+
+
+@pytest.fixture(scope="module")
+def result():
+    model = load_model(QUAD)
+    trot = read_ctl(TROT, n_dof=8, harmonics=2).coeffs
+    cfg = StabilityConfig(bumps=(0.0, 0.03), roughs=(0.02,), seeds=2, time=1.0)
+    return model, perturbation_experiment(model, np.stack([trot, np.zeros_like(trot)]), ["trot", "stand"], cfg)
+
+
+def test_bump_of_zero_equals_flat_and_the_flat_lane_the_flat_model(result):
+    _, r = result
+    assert [c.label for c in r.conditions] == ["flat", "bump 0 cm", "bump 3 cm", "rough 2 cm #0", "rough 2 cm #1"]
+    np.testing.assert_array_equal(r.S[:, 0], r.S[:, 1])
+    np.testing.assert_array_equal(r.proj[:, 0], r.proj[:, 1])
+    np.testing.assert_array_equal(r.distance[:, 0], r.distance[:, 1])
+    np.testing.assert_array_equal(r.distance[:, 0], r.flat_distance)     # the course's flat lane = flat ground
+    assert not np.array_equal(r.S[0, 3], r.S[0, 4])                      # two rough fields, two walks
+
+
+def test_a_standing_robot_has_the_projection_stability_of_its_stance(result):
+    model, r = result
+    # four feet straight under the hips at x = +-0.14, y = +-0.22: the CM's nearest side is 0.14 m away
+    m = model.mass
+    h = float((m * model.x0[2]).sum() / m.sum())
+    proj = r.proj[1, 0, r.t > 0.3]
+    assert np.isfinite(proj).all() and r.proj_undefined[1, 0] == 0
+    np.testing.assert_allclose(proj, 0.14 / h, rtol=0.01)
+    np.testing.assert_allclose(r.S[1, 0], 1.0, atol=1e-4)               # upright: S(0) = 1 (eq. 6.2)
+    assert not r.fell[1].any()
+    s = r.summary()
+    assert s["stand"]["flat"]["fall_rate"] == 0 and s["trot"]["rough 2 cm"]["episodes"] == 2
+
+
+def test_choose_stable_unstable():
+    fit = np.array([0.1, -0.2, 0.3, 0.2])
+    S = np.array([0.99, 1.0, 0.95, 0.90])
+    fell = np.array([False, False, True, False])
+    assert choose_stable_unstable(fit, S, fell) == (0, 3)   # walkers only; the stable one never fell
+
+
+def _fake_run(path, genomes, gamma, seed):
+    text = open(QUAD).read()
+    meta = {"model_path": QUAD, "model_text": text, "time": 0.5, "n_dof": 8, "harmonics": 2,
+            "cli_problem_args": json.dumps({"time": None, "terrain": None})}
+    problem = SimpleNamespace(name="quadruped", n_genes=40, lower=-0.8, upper=0.8, meta=meta)
+    n = len(genomes)
+    create_run(path, kind="ga", config={"seed": seed, "population": n, "gamma": gamma, "pocket": 0,
+                                        "crossover": False},
+               problem=problem, population=n, generations=1, metrics={}, state={})
+    with RunWriter(path) as w:
+        w.append(Row(genomes=genomes.astype(np.float32), fitness=np.arange(n, dtype=np.float32),
+                     diverged=np.zeros(n, bool), mutation_rate=0.2, wall_time=1.0))
+
+
+def test_population_study_of_a_sweep_folder(tmp_path, capsys):
+    trot = read_ctl(TROT, n_dof=8, harmonics=2).coeffs.reshape(-1)
+    rng = np.random.default_rng(0)
+    for gamma in (0.0, 1.0):
+        for seed in (0, 1):
+            g = np.stack([trot, trot + rng.normal(0, 0.01, trot.shape)])
+            _fake_run(tmp_path / "sweep" / f"g{gamma:g}" / f"s{seed}.h5", g, gamma, seed)
+    out = tmp_path / "out"
+    assert cli.main(["stability", str(tmp_path / "sweep"), "--bump", "0.03", "--rough", "none",
+                     "--json", "--out", str(out)]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["groups"] == ["flat", "bump 3 cm"] and s["controllers_per_run"] == 2
+    assert set(s["settings"]) == {"γ=0", "γ=1"}
+    for v in s["settings"].values():
+        assert v["runs"] == 2 and 0 <= v["fall"]["bump 3 cm"]["mean"] <= 1
+    assert sorted(os.listdir(out)) == ["population.json", "population.md", "population.png", "stable.ctl",
+                                       "unstable.ctl"]
+    assert s["picks"]["stable"]["ga_fitness"] > 0
+
+
+def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
+    assert cli.main(["stability", QUAD, "--out", str(tmp_path / "x")]) == 2
+    assert "--ctl" in capsys.readouterr().err
+    assert cli.main(["stability", QUAD, "--ctl", TROT, "--bump", "-0.01", "--out", str(tmp_path / "x")]) == 2
