@@ -32,6 +32,8 @@ _floats = o.list_of(o.nonneg, "expected numbers >= 0, e.g. 0,0.01,0.1,1")
 _pockets = o.list_of(o.count0, "expected whole numbers >= 0, e.g. 0,4")
 _counts = o.list_of(o.count, "expected whole numbers >= 1, e.g. 10,20")
 _bools = o.list_of(_onoff, "expected on/off, e.g. off,on")
+_es_counts = o.list_of(o.int_in(2), "expected whole numbers >= 2, e.g. 20,40")
+_positives = o.list_of(o.positive, "expected numbers > 0, e.g. 0.1,0.2")
 DEFAULT_SEEDS = 5
 
 
@@ -54,14 +56,15 @@ def _seeds(s: str) -> list[int]:
 
 
 GRID = ("gamma", "pocket", "crossover", "population", "generations", "mu_max", "mutation", "sigma", "selection",
-        "no_ga", "baselines", "samples")
+        "no_ga", "baselines", "samples", "es_population", "es_sigma", "es_lr")
 
 
 def register(subparsers: Any) -> None:
     from cpgjax.episode.fitness import DEFAULT_DELTA
+    from cpgjax.optim.es import ESConfig
     from cpgjax.optim.ga import MUTATIONS, SELECTIONS, GAConfig
 
-    d = GAConfig()
+    d, e = GAConfig(), ESConfig()
     p = subparsers.add_parser(
         "sweep", help="many GA / baseline runs (settings x seeds) batched into one XLA program",
         description="Run every combination of the listed settings for every seed, batched into one jitted "
@@ -84,7 +87,15 @@ def register(subparsers: Any) -> None:
     p.add_argument("--selection", choices=SELECTIONS,
                    help=f"reading of 'probability ∝ fitness', default {d.selection}")
     p.add_argument("--no-ga", action="store_true", help="baselines only")
-    p.add_argument("--baselines", help="comma list of random, amc3, amc5, amc10, ... (default none)")
+    p.add_argument("--baselines", help="comma list of random, amc3, amc5, amc10, ... and the evolution strategies "
+                                       "cmaes, sep_cmaes, openes, pgpe, snes (default none)")
+    p.add_argument("--es-population", type=_es_counts,
+                   help="evolution strategies: comma list of samples per generation (default: --population's "
+                        "first; even for openes and pgpe)")
+    p.add_argument("--es-sigma", type=_positives, help=f"evolution strategies: comma list of initial step sizes "
+                                                       f"(default {e.sigma:g})")
+    p.add_argument("--es-lr", type=_positives, help=f"openes and pgpe: comma list of optax.adam learning rates "
+                                                    f"(default {e.lr:g})")
     p.add_argument("--samples", type=o.count, help="baseline budget (default population x generations)")
     p.add_argument("--seeds", type=_seeds,
                    help=f"{DEFAULT_SEEDS} (= seeds 0..{DEFAULT_SEEDS - 1}, the default), a comma list 3,7,9 "
@@ -156,7 +167,8 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
                                **extra)
     if a["baselines"]:
         samples = a["samples"] or a["population"][0] * a["generations"]
-        cells += sweep.baseline_cells(a["baselines"].split(","), samples=samples, batch=a["population"][0])
+        cells += sweep.baseline_cells(a["baselines"].split(","), samples=samples, batch=a["population"][0],
+                                      es_population=a["es_population"], es_sigma=a["es_sigma"], es_lr=a["es_lr"])
     if not cells:
         raise ValueError("nothing to run (--no-ga without --baselines)")
     return sweep.plan(args.out, cells, a["seeds"], chunk=args.chunk), problem_args
