@@ -21,8 +21,12 @@ as the GA's population does) and step size ``sigma``.  ``evosax`` minimises: it 
 ``-fitness``, with a diverged episode as NaN (its rank shaping puts NaN last).
 
 **The box.**  A strategy samples an unbounded Gaussian; the genome evaluated (and written to the
-run file) is the sample clipped to the box, the strategy is told its own sample with the fitness
-of the clipped genome, and after each update its mean is projected back into the box.
+run file) is the sample *mirrored* at the faces of the box (:func:`reflect`), the strategy is told
+its own sample with the fitness of that genome, and after each update its mean is projected back
+into the box.  Mirroring, not clipping: clipped samples outside the box would all score as the
+face does, a flat region in which CMA-ES's step size grows without bound (measured: sigma 0.3 ->
+3.5e4 in 60 generations with an optimum outside the box); mirrored ones score worse the further
+out they are, so the search settles on the face.
 
 **State, as the GA's.**  :class:`ESState` holds the samples the *next* generation evaluates (as the
 GA's state holds its next population) and the evosax state packed into two flat vectors (its float
@@ -135,6 +139,13 @@ def _unpacker(template):
     return unpack
 
 
+def reflect(x: jax.Array, lower: float, upper: float) -> jax.Array:
+    """``x`` mirrored into ``[lower, upper]`` at its faces (periodically: a mirror of a mirror ...)."""
+    w = upper - lower
+    y = jnp.mod(x - lower, 2 * w)
+    return jnp.clip(lower + (w - jnp.abs(y - w)), lower, upper)
+
+
 def make_es(cfg: ESConfig, base: np.ndarray, lower: float, upper: float):
     """``(init(key), propose(state), update(state, fitness, diverged, key))`` of a strategy, pure and jittable."""
     n, g = cfg.population, int(base.shape[0])
@@ -151,7 +162,7 @@ def make_es(cfg: ESConfig, base: np.ndarray, lower: float, upper: float):
         return ask(k_ask, es.init(k_init, mean0, params))
 
     def propose(state: ESState) -> jax.Array:
-        return jnp.clip(state.samples, lower, upper)
+        return reflect(state.samples, lower, upper)
 
     def update(state: ESState, fitness, diverged, key) -> ESState:
         k_tell, k_ask = jax.random.split(key)
