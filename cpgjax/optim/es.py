@@ -49,6 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")
+NAMES = {"cmaes": "CMA-ES", "sep_cmaes": "sep-CMA-ES", "openes": "OpenAI-ES", "pgpe": "PGPE", "snes": "SNES"}
 ANTITHETIC = ("openes", "pgpe")       # mirrored samples: the population must be even
 GRADIENT = ("openes", "pgpe")         # mean moved by an optax optimiser with learning rate ``lr``
 
