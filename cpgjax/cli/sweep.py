@@ -120,6 +120,9 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser("report", help="summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)")
     p.add_argument("sweep", metavar="runs/NAME/")
     p.add_argument("--out", default=None, help="markdown file (default runs/NAME/report.md)")
+    p.add_argument("--fig-6-12", default=None, metavar="FIG.png",
+                   help="also draw Fig. 6.12 of the sweep: every GA setting (A) and every search and evolution "
+                        "strategy (B) on one fitness scale, x in evaluations")
     p.set_defaults(func=cmd_report)
 
     p = subparsers.add_parser(
@@ -212,9 +215,18 @@ def cmd_report(args: argparse.Namespace) -> int:
     if not os.path.isdir(args.sweep):
         raise FileNotFoundError(2, "no such sweep folder", args.sweep)
     o.check_output_file(out)
+    o.check_output_file(args.fig_6_12, "--fig-6-12")
     text = write_report(args.sweep, out)
     print(text)
     print(f"wrote {out}")
+    if args.fig_6_12:
+        from cpgjax.io.sweepdir import find_runs
+        from cpgjax.plots import fig_6_12
+
+        files = [p for fs in find_runs(args.sweep).values() for p in fs]
+        fig = fig_6_12(files, files, title=f"Fig. 6.12 — every method of {args.sweep}, one fitness scale")
+        fig.savefig(args.fig_6_12, dpi=120)
+        print(f"wrote {args.fig_6_12}")
     return 0
 
 

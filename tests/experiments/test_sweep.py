@@ -270,3 +270,9 @@ def test_a_sweep_mixing_ga_and_evolution_strategies_equals_the_runs_made_one_by_
             a = read_run(os.path.join(out, cell, f"s{seed}.h5"))
             same_rows(a, read_run(single))
             assert a.kind == cell.split("_n")[0] and a.completed == (3 if cell.startswith("cmaes_n8") else 4)
+    # the report has a row per evolution strategy against the GA, and draws Fig. 6.12 with every method
+    fig = str(tmp_path / "f612.png")
+    assert cli.main(["report", out, "--fig-6-12", fig]) == 0
+    text = open(os.path.join(out, "report.md")).read()
+    assert text.count("(not in the thesis) The GA against") == 4 and "CMA-ES, N=8, σ0=0.3" in text
+    assert os.path.getsize(fig) > 10_000
