@@ -10,8 +10,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from cpgjax.io.results import nanreduce, read_run
+from cpgjax.optim.es import GRADIENT
+from cpgjax.optim.es import NAMES as ES_NAMES
 
 Paths = Sequence[str | os.PathLike[str]]
+
 
 
 @dataclass
@@ -62,6 +65,9 @@ class Cell:
             return s
         if self.kind == "amc":
             return f"adaptive MC, M={c.get('M')}"
+        if self.kind in ES_NAMES:
+            s = f"{ES_NAMES[self.kind]}, N={c.get('population')}, σ0={c.get('sigma'):g}"
+            return s + (f", lr={c.get('lr'):g}" if self.kind in GRADIENT else "")
         return "random search"
 
 
@@ -90,7 +96,7 @@ def load_cells(paths: Paths) -> list[Cell]:
 
 
 def _order(c: Cell):
-    k = {"ga": 0, "random": 1, "amc": 2}.get(c.kind, 3)
+    k = {"ga": 0, "random": 1, "amc": 2, **{m: 3 + i for i, m in enumerate(ES_NAMES)}}.get(c.kind, 9)
     cfg = c.config
     return (k, int(bool(cfg.get("crossover"))), cfg.get("pocket", 0), cfg.get("gamma", 0), cfg.get("M", 0),
             cfg.get("population", 0))

@@ -19,16 +19,19 @@ from cpgjax.cli import options as o
 GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossover", "mutation", "sigma",
               "init_spread", "selection", "seed", "chunk")
 SEARCH_OPTIONS = ("method", "samples", "batch", "M", "width_end", "seed", "chunk")
+ES_OPTIONS = ("method", "samples", "population", "sigma", "lr", "seed", "chunk")
+ES_METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")   # cpgjax.optim.es.METHODS (no import at start-up)
 PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb")
 
 
 def register(subparsers: Any) -> None:
     """Add ``evolve``, ``search``, ``best`` and ``plot`` to an argparse subparsers object."""
     from cpgjax.episode.fitness import DEFAULT_DELTA
+    from cpgjax.optim import es
     from cpgjax.optim.baselines import METHODS, SearchConfig
     from cpgjax.optim.ga import MUTATIONS, SELECTIONS, GAConfig
 
-    d, s = GAConfig(), SearchConfig()
+    d, s, e = GAConfig(), SearchConfig(), es.ESConfig()
 
     def common(p: argparse.ArgumentParser, kind: str) -> None:
         p.add_argument("model", metavar="MODEL.wl",
@@ -80,15 +83,25 @@ def register(subparsers: Any) -> None:
                    help=f"weights max(f,0) (clip, thesis) or f-min(f) (shift) (default {d.selection})")
     p.set_defaults(func=cmd_evolve)
 
-    p = subparsers.add_parser("search", help="baseline search: random (Fig. 6.10) or adaptive Monte Carlo "
-                              "(Fig. 6.11)")
+    p = subparsers.add_parser("search", help="baseline search: random (Fig. 6.10), adaptive Monte Carlo "
+                              "(Fig. 6.11), or an evolution strategy of evosax (CMA-ES, OpenAI-ES, ...)")
     common(p, "search")
-    p.add_argument("--method", choices=METHODS, default=None, help=f"random or amc (default {s.method})")
+    p.add_argument("--method", choices=METHODS + es.METHODS, default=None,
+                   help=f"random or amc (the thesis's baselines), or an evolution strategy of evosax: "
+                        f"{', '.join(es.METHODS)} (default {s.method})")
     p.add_argument("--M", dest="M", type=o.count, default=None, help=f"amc: independent variables (default {s.M})")
     p.add_argument("--samples", type=o.count, default=None, help=f"evaluation budget (default {s.samples})")
     p.add_argument("--batch", type=o.count, default=None, help=f"evaluations per iteration (default {s.batch})")
     p.add_argument("--width-end", type=o.positive, default=None,
                    help=f"amc: final half-width of the sampling box (default {s.width_end})")
+    p.add_argument("--population", type=o.int_in(2, 1_000_000), default=None,
+                   help=f"evolution strategies: samples per generation (default {e.population}; even for "
+                        f"{' and '.join(es.ANTITHETIC)})")
+    p.add_argument("--sigma", type=o.positive, default=None,
+                   help=f"evolution strategies: initial step size, the std of the search distribution "
+                        f"(default {e.sigma:g}; genes span 1.6)")
+    p.add_argument("--lr", type=o.positive, default=None,
+                   help=f"{' and '.join(es.GRADIENT)}: learning rate of optax.adam on the mean (default {e.lr:g})")
     p.set_defaults(func=cmd_search)
 
     p = subparsers.add_parser("best", help="print the best controller of a run (and write it as a .ctl)")
@@ -166,6 +179,7 @@ def _run_command(args: argparse.Namespace, kind: str) -> int:
         try:
             from cpgjax.experiments.evolve import run_ga, run_search
             from cpgjax.optim.baselines import SearchConfig
+            from cpgjax.optim.es import ESConfig
             from cpgjax.optim.factory import make_problem
             from cpgjax.optim.ga import GAConfig
 
@@ -175,6 +189,10 @@ def _run_command(args: argparse.Namespace, kind: str) -> int:
                 out = _default_out(args.model, label, args.seed if args.seed is not None else config().seed)
             o.check_output_file(out)
             cfg_stored, prob_stored = _stored(out, args.resume)
+            if kind != "ga" and (args.method or cfg_stored.get("method")) in ES_METHODS:
+                config, names = ESConfig, ES_OPTIONS
+            elif kind != "ga":
+                _refuse_es_options(args)
             cfg = config(**_settings(args, names, cfg_stored))
             pa = {n: (getattr(args, n) if getattr(args, n) is not None else prob_stored.get(n))
                   for n in PROBLEM_OPTIONS}
@@ -185,6 +203,14 @@ def _run_command(args: argparse.Namespace, kind: str) -> int:
             raise interrupted(args, out or "?") from None
     _report(summary)
     return 0
+
+
+def _refuse_es_options(args: argparse.Namespace) -> None:
+    for n in ("population", "sigma", "lr"):
+        if getattr(args, n, None) is not None:
+            raise ValueError(f"--{n} applies to the evolution strategies ({', '.join(ES_METHODS)}), "
+                             f"not to --method {args.method or 'random'} "
+                             "(use --batch for its evaluations per iteration)")
 
 
 def _report(summary: dict[str, Any]) -> None:

@@ -33,6 +33,8 @@ _floats = o.list_of(o.nonneg, "expected numbers >= 0, e.g. 0,0.01,0.1,1")
 _pockets = o.list_of(o.count0, "expected whole numbers >= 0, e.g. 0,4")
 _counts = o.list_of(o.count, "expected whole numbers >= 1, e.g. 10,20")
 _bools = o.list_of(_onoff, "expected on/off, e.g. off,on")
+_es_counts = o.list_of(o.int_in(2), "expected whole numbers >= 2, e.g. 20,40")
+_positives = o.list_of(o.positive, "expected numbers > 0, e.g. 0.1,0.2")
 DEFAULT_SEEDS = 5
 
 
@@ -55,14 +57,15 @@ def _seeds(s: str) -> list[int]:
 
 
 GRID = ("gamma", "pocket", "crossover", "population", "generations", "mu_max", "mutation", "sigma", "selection",
-        "no_ga", "baselines", "samples")
+        "no_ga", "baselines", "samples", "es_population", "es_sigma", "es_lr")
 
 
 def register(subparsers: Any) -> None:
     from cpgjax.episode.fitness import DEFAULT_DELTA
+    from cpgjax.optim.es import ESConfig
     from cpgjax.optim.ga import MUTATIONS, SELECTIONS, GAConfig
 
-    d = GAConfig()
+    d, e = GAConfig(), ESConfig()
     p = subparsers.add_parser(
         "sweep", help="many GA / baseline runs (settings x seeds) batched into one XLA program",
         description="Run every combination of the listed settings for every seed, batched into one jitted "
@@ -85,7 +88,15 @@ def register(subparsers: Any) -> None:
     p.add_argument("--selection", choices=SELECTIONS,
                    help=f"reading of 'probability ∝ fitness', default {d.selection}")
     p.add_argument("--no-ga", action="store_true", help="baselines only")
-    p.add_argument("--baselines", help="comma list of random, amc3, amc5, amc10, ... (default none)")
+    p.add_argument("--baselines", help="comma list of random, amc3, amc5, amc10, ... and the evolution strategies "
+                                       "cmaes, sep_cmaes, openes, pgpe, snes (default none)")
+    p.add_argument("--es-population", type=_es_counts,
+                   help="evolution strategies: comma list of samples per generation (default: --population's "
+                        "first; even for openes and pgpe)")
+    p.add_argument("--es-sigma", type=_positives, help=f"evolution strategies: comma list of initial step sizes "
+                                                       f"(default {e.sigma:g})")
+    p.add_argument("--es-lr", type=_positives, help=f"openes and pgpe: comma list of optax.adam learning rates "
+                                                    f"(default {e.lr:g})")
     p.add_argument("--samples", type=o.count, help="baseline budget (default population x generations)")
     p.add_argument("--seeds", type=_seeds,
                    help=f"{DEFAULT_SEEDS} (= seeds 0..{DEFAULT_SEEDS - 1}, the default), a comma list 3,7,9 "
@@ -117,6 +128,9 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser("report", help="summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)")
     p.add_argument("sweep", metavar="runs/NAME/")
     p.add_argument("--out", default=None, help="markdown file (default runs/NAME/report.md)")
+    p.add_argument("--fig-6-12", default=None, metavar="FIG.png",
+                   help="also draw Fig. 6.12 of the sweep: every GA setting (A) and every search and evolution "
+                        "strategy (B) on one fitness scale, x in evaluations")
     p.set_defaults(func=cmd_report)
 
     p = subparsers.add_parser(
@@ -164,7 +178,8 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
                                **extra)
     if a["baselines"]:
         samples = a["samples"] or a["population"][0] * a["generations"]
-        cells += sweep.baseline_cells(a["baselines"].split(","), samples=samples, batch=a["population"][0])
+        cells += sweep.baseline_cells(a["baselines"].split(","), samples=samples, batch=a["population"][0],
+                                      es_population=a["es_population"], es_sigma=a["es_sigma"], es_lr=a["es_lr"])
     if not cells:
         raise ValueError("nothing to run (--no-ga without --baselines)")
     return sweep.plan(args.out, cells, a["seeds"], chunk=args.chunk), problem_args
@@ -224,9 +239,18 @@ def cmd_report(args: argparse.Namespace) -> int:
     if not os.path.isdir(args.sweep):
         raise FileNotFoundError(2, "no such sweep folder", args.sweep)
     o.check_output_file(out)
+    o.check_output_file(args.fig_6_12, "--fig-6-12")
     text = write_report(args.sweep, out)
     print(text)
     print(f"wrote {out}")
+    if args.fig_6_12:
+        from cpgjax.io.sweepdir import find_runs
+        from cpgjax.plots import fig_6_12
+
+        files = [p for fs in find_runs(args.sweep).values() for p in fs]
+        fig = fig_6_12(files, files, title=f"Fig. 6.12 — every method of {args.sweep}, one fitness scale")
+        fig.savefig(args.fig_6_12, dpi=120)
+        print(f"wrote {args.fig_6_12}")
     return 0
 
 

@@ -39,8 +39,8 @@ import numpy as np
 
 from cpgjax.errors import ResultsError
 from cpgjax.io.results import Row, RunWriter, create_run, read_attrs, read_resume_point, read_run
-from cpgjax.optim import baselines, ga
-from cpgjax.optim.algorithm import Algorithm, ga_algorithm, make_chunk_fn, search_algorithm
+from cpgjax.optim import baselines, es, ga
+from cpgjax.optim.algorithm import Algorithm, ga_algorithm, make_algorithm, make_chunk_fn
 from cpgjax.optim.problem import Problem
 
 
@@ -371,13 +371,15 @@ def run_ga(problem: Problem, cfg: ga.GAConfig, out: str | os.PathLike[str] | Non
                 desc="evolve")
 
 
-def run_search(problem: Problem, cfg: baselines.SearchConfig, out: str | os.PathLike[str] | None = None, *,
+def run_search(problem: Problem, cfg: baselines.SearchConfig | es.ESConfig,
+               out: str | os.PathLike[str] | None = None, *,
                resume: bool = False, overwrite: bool = False, progress: bool = False,
                stop_after: int | None = None,
                callback: Callable[[int, dict[str, float]], None] | None = None) -> dict[str, Any]:
-    """Run a baseline search (:mod:`cpgjax.optim.baselines`) with the layout, keys and resume of :func:`run_ga`."""
+    """Run a baseline search (:mod:`cpgjax.optim.baselines`) or an evolution strategy (:mod:`cpgjax.optim.es`)
+    with the layout, keys and resume of :func:`run_ga`."""
     static = tuple(sorted((k, v) for k, v in cfg.to_dict().items() if k not in ("seed", "chunk")))
-    return _run(problem, search_algorithm(problem, cfg), out, chunk=cfg.chunk, seed=cfg.seed, static=static,
+    return _run(problem, make_algorithm(problem, cfg), out, chunk=cfg.chunk, seed=cfg.seed, static=static,
                 resume=resume,
                 overwrite=overwrite, progress=progress, stop_after=stop_after, callback=callback,
                 desc=cfg.method)

@@ -1,7 +1,8 @@
 """The adapter every optimiser goes through, and the one generation step all drivers share.
 
 An :class:`Algorithm` is a population-based optimiser as pure functions over a typed state
-(:class:`cpgjax.optim.ga.GAState`, :class:`cpgjax.optim.baselines.AMCState`, ...)::
+(:class:`cpgjax.optim.ga.GAState`, :class:`cpgjax.optim.baselines.AMCState`,
+:class:`cpgjax.optim.es.ESState`, ...)::
 
     genomes = propose(params, state, fold_in(k_propose, GEN), GEN)    # GA: the population
     out     = problem.evaluate(genomes)                                 # one batched simulation
@@ -27,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.optim import baselines, ga
+from cpgjax.optim import baselines, es, ga
 from cpgjax.optim.problem import Problem
 
 
@@ -98,10 +99,30 @@ def search_algorithm(problem: Problem, cfg: baselines.SearchConfig) -> Algorithm
     return Algorithm("amc", n, K, cfg.to_dict(), (), init, propose, update, nan)
 
 
-def make_algorithm(problem: Problem, cfg: ga.GAConfig | baselines.SearchConfig) -> Algorithm:
-    """The :class:`Algorithm` of a configuration (GA or a baseline search)."""
+def es_algorithm(problem: Problem, cfg: es.ESConfig) -> Algorithm:
+    """An evolution strategy of ``evosax`` (:mod:`cpgjax.optim.es`) as an :class:`Algorithm`.
+
+    Its parameters are compile-time settings (every run of a sweep group shares them), so ``params``
+    is empty; the "mutation rate" column holds NaN, as for the other baselines.
+    """
+    base = np.asarray(problem.base_genome, np.float32)
+    init, propose, update = es.make_es(cfg, base, problem.lower, problem.upper)
+    return Algorithm(cfg.method, cfg.population, cfg.generations, cfg.to_dict(), (),
+                     init=lambda params, key: init(key),
+                     propose=lambda params, state, key, gen: propose(state),
+                     update=lambda params, state, genomes, f, d, key, gen: update(state, f, d, key),
+                     rate=lambda params, gen: jnp.float32(jnp.nan))
+
+
+Config = ga.GAConfig | baselines.SearchConfig | es.ESConfig
+
+
+def make_algorithm(problem: Problem, cfg: Config) -> Algorithm:
+    """The :class:`Algorithm` of a configuration (GA, a baseline search, or an evolution strategy)."""
     if isinstance(cfg, ga.GAConfig):
         return ga_algorithm(problem, cfg)
+    if isinstance(cfg, es.ESConfig):
+        return es_algorithm(problem, cfg)
     return search_algorithm(problem, cfg)
 
 

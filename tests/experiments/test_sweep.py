@@ -245,3 +245,33 @@ def test_resume_with_another_episode_length_is_refused(tmp_path):
     with pytest.raises(ResultsError, match=r"cannot resume: --time 0.5 differs from the run's 0.3 s"):
         sweep.run_sweep(sweep.sweep_problem({"model": WL, "time": 0.5}), specs, progress=False)
     assert open(specs[0].path, "rb").read() == before
+
+
+def test_a_sweep_mixing_ga_and_evolution_strategies_equals_the_runs_made_one_by_one(tmp_path):
+    """The GA (population 6) and two evolution strategies (population 8) in one program: every run holds bit
+    for bit the rows of the same run made alone with `cpgjax evolve` / `cpgjax search`."""
+    m, out = "analytic:diverging:10", str(tmp_path / "mixed")
+    assert cli.main(["sweep", m, "--population", "6", "--generations", "4", "--pocket", "2", "--seeds", "2",
+                     "--baselines", "cmaes,openes", "--es-population", "8", "--es-sigma", "0.3",
+                     "--chunk", "2", "--out", out, "--quiet"]) == 0
+    cells = sweepdir.find_runs(out)
+    assert sorted(cells) == ["cmaes_n8_s0.3", "ga_n6_mu0.2_g0_p2_xoff", "openes_n8_s0.3_lr0.05"]
+    single = str(tmp_path / "one.h5")
+    for seed in (0, 1):
+        for cell, argv in (("ga_n6_mu0.2_g0_p2_xoff", ["evolve", "--population", "6", "--generations", "4",
+                                                       "--pocket", "2"]),
+                           ("cmaes_n8_s0.3", ["search", "--method", "cmaes", "--population", "8", "--samples", "24",
+                                              "--sigma", "0.3"]),
+                           ("openes_n8_s0.3_lr0.05", ["search", "--method", "openes", "--population", "8",
+                                                      "--samples", "24", "--sigma", "0.3"])):
+            assert cli.main([argv[0], m, *argv[1:], "--seed", str(seed), "--chunk", "2", "--out", single,
+                             "--overwrite", "--quiet"]) == 0
+            a = read_run(os.path.join(out, cell, f"s{seed}.h5"))
+            same_rows(a, read_run(single))
+            assert a.kind == cell.split("_n")[0] and a.completed == (4 if cell.startswith("ga") else 3)
+    # the report has a row per evolution strategy against the GA, and draws Fig. 6.12 with every method
+    fig = str(tmp_path / "f612.png")
+    assert cli.main(["report", out, "--fig-6-12", fig]) == 0
+    text = open(os.path.join(out, "report.md")).read()
+    assert text.count("(not in the thesis) The GA against") == 2 and "CMA-ES, N=8, σ0=0.3" in text
+    assert os.path.getsize(fig) > 10_000

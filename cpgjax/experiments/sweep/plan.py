@@ -14,7 +14,7 @@ from typing import Any
 
 from cpgjax.errors import ResultsError
 from cpgjax.io.results import read_attrs
-from cpgjax.optim import baselines, ga
+from cpgjax.optim import baselines, es, ga
 
 MANIFEST = "sweep.json"
 
@@ -24,8 +24,8 @@ class RunSpec:
     """One run of a sweep: a cell (setting), its configuration (with the seed) and its file."""
 
     cell: str
-    kind: str                                  # "ga" | "random" | "amc"
-    cfg: ga.GAConfig | baselines.SearchConfig
+    kind: str                                  # "ga" | "random" | "amc" | an ES method ("cmaes", ...)
+    cfg: ga.GAConfig | baselines.SearchConfig | es.ESConfig
     path: str
 
     @property
@@ -51,8 +51,11 @@ def ga_cell_name(cfg: ga.GAConfig) -> str:
     return name
 
 
-def search_cell_name(cfg: baselines.SearchConfig) -> str:
-    """``random`` or ``amc_M5``."""
+def search_cell_name(cfg: baselines.SearchConfig | es.ESConfig) -> str:
+    """``random``, ``amc_M5``, or an evolution strategy: ``cmaes_n20_s0.2``, ``openes_n20_s0.2_lr0.05``."""
+    if isinstance(cfg, es.ESConfig):
+        name = f"{cfg.method}_n{cfg.population}_s{_fmt(cfg.sigma)}"
+        return name + (f"_lr{_fmt(cfg.lr)}" if cfg.method in es.GRADIENT else "")
     return "random" if cfg.method == "random" else f"amc_M{cfg.M}"
 
 
@@ -64,21 +67,33 @@ def ga_grid(*, gamma: Sequence[float] = (0.0,), pocket: Sequence[int] = (0,), cr
 
 
 def baseline_cells(methods: Sequence[str], *, samples: int = 3000, batch: int = 20,
-                   **common: Any) -> list[baselines.SearchConfig]:
-    """Baseline cells from names ``random``, ``amc3``, ``amc5``, ... (``amcM``: adaptive MC with M variables)."""
-    out = []
+                   es_population: Sequence[int] | None = None, es_sigma: Sequence[float] | None = None,
+                   es_lr: Sequence[float] | None = None,
+                   **common: Any) -> list[baselines.SearchConfig | es.ESConfig]:
+    """Baseline cells from names ``random``, ``amc3``, ``amc5``, ... (``amcM``: adaptive MC with M variables)
+    and the evolution strategies ``cmaes``, ``sep_cmaes``, ``openes``, ``pgpe``, ``snes``
+    (:mod:`cpgjax.optim.es`), each for every listed population (default ``batch``), sigma and
+    learning rate (defaults: :class:`cpgjax.optim.es.ESConfig`'s; the rate only for openes / pgpe)."""
+    d = es.ESConfig()
+    out: list[baselines.SearchConfig | es.ESConfig] = []
     for m in methods:
         m = m.strip().lower()
-        if m == "random":
+        if m in es.METHODS:
+            lrs = (es_lr or [d.lr]) if m in es.GRADIENT else [d.lr]
+            out += [es.ESConfig(method=m, samples=samples, population=int(n), sigma=float(sg), lr=float(lr),
+                                **common)
+                    for n in (es_population or [batch]) for sg in (es_sigma or [d.sigma]) for lr in lrs]
+        elif m == "random":
             out.append(baselines.SearchConfig(method="random", samples=samples, batch=batch, **common))
         elif m.startswith("amc") and m[3:].isdigit():
             out.append(baselines.SearchConfig(method="amc", M=int(m[3:]), samples=samples, batch=batch, **common))
         else:
-            raise ValueError(f"unknown baseline {m!r}: expected random or amcM (e.g. amc5)")
+            raise ValueError(f"unknown baseline {m!r}: expected random, amcM (e.g. amc5) or an evolution strategy "
+                             f"({', '.join(es.METHODS)})")
     return out
 
 
-def plan(out_dir: str | os.PathLike[str], cells: Sequence[ga.GAConfig | baselines.SearchConfig],
+def plan(out_dir: str | os.PathLike[str], cells: Sequence[ga.GAConfig | baselines.SearchConfig | es.ESConfig],
          seeds: Sequence[int], chunk: int | None = None) -> list[RunSpec]:
     """The runs of ``cells`` x ``seeds`` with their files under ``out_dir``."""
     specs, seen = [], set()

@@ -1,0 +1,91 @@
+"""The evolution strategies of evosax behind one adapter (cpgjax.optim.es): they optimise, stay in the box,
+and their state survives the run file (resume = an uninterrupted run)."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from runcases import same_rows
+
+from cpgjax.cli import evolve as cli_evolve
+from cpgjax.experiments.evolve import run_search
+from cpgjax.io.results import read_run
+from cpgjax.optim import es
+from cpgjax.optim.analytic import analytic_problem, default_optimum
+
+SPHERE = "analytic:sphere:6"      # f = 1 - mean((g - opt)^2) / 0.25, maximum 1 at opt (|opt| <= 0.5, in the box)
+
+
+@pytest.mark.parametrize("method", es.METHODS)
+def test_each_method_finds_the_optimum_of_a_shifted_sphere(method):
+    """From the start genome (all zeros here), 1200 evaluations bring the mean of the search near the optimum."""
+    problem = analytic_problem(SPHERE)
+    cfg = es.ESConfig(method=method, samples=1200, population=20, chunk=20)
+    s = run_search(problem, cfg)
+    opt = default_optimum(6)
+    first = s["history"]["fitness"][0].max()
+    last = s["history"]["genomes"][-1]                     # the last generation's samples, clipped to the box
+    assert s["completed"] == 60 and s["history"]["genomes"].shape == (60, 20, 6)
+    assert s["best_fitness"] > 0.98 > first                # RMS distance of the best < 0.07 (start: 0.33)
+    assert np.sqrt(np.mean((last.mean(axis=0) - opt) ** 2)) < 0.08
+    assert np.all(np.abs(s["history"]["genomes"]) <= np.float32(0.8))
+
+
+def test_reflect_mirrors_into_the_box():
+    x = jnp.asarray([0.0, 0.9, -1.0, 2.5, -0.8, 0.8, 4.1])
+    np.testing.assert_allclose(np.asarray(es.reflect(x, -0.8, 0.8)), [0.0, 0.7, -0.6, -0.7, -0.8, 0.8, 0.7],
+                               atol=1e-6)
+
+
+@pytest.mark.parametrize("method", ["cmaes", "snes"])
+def test_an_optimum_outside_the_box_brings_the_search_to_its_face(method):
+    """Genes 0 and 2 want to leave the box: the genomes evaluated stay in it, the search settles on its faces
+    with a small step size (no flat region outside the box for the step size to grow in)."""
+    target = jnp.asarray([1.5, 0.0, -2.0])
+    cfg = es.ESConfig(method=method, population=10, sigma=0.3)
+    init, propose, update = es.make_es(cfg, np.zeros(3, np.float32), -0.8, 0.8)
+    state = init(jax.random.key(0))
+    step = jax.jit(lambda s, k: update(s, -jnp.sum((propose(s) - target) ** 2, axis=1), jnp.zeros(10, bool), k))
+    for i in range(60):
+        assert float(jnp.max(jnp.abs(propose(state)))) <= np.float32(0.8)
+        state = step(state, jax.random.key(i + 1))
+    np.testing.assert_allclose(np.asarray(propose(state)), np.broadcast_to([0.8, 0.0, -0.8], (10, 3)), atol=0.05)
+
+
+def test_diverged_samples_never_pull_the_search():
+    """A diverged sample (NaN fitness, the flag set) ranks last, whatever its stored fitness."""
+    cfg = es.ESConfig(method="snes", population=4, sigma=0.1)
+    init, propose, update = es.make_es(cfg, np.zeros(2, np.float32), -0.8, 0.8)
+    state = init(jax.random.key(1))
+    f = jnp.asarray([0.1, 0.2, 9.0, jnp.nan])
+    flagged = update(state, f, jnp.asarray([False, False, True, True]), jax.random.key(2))
+    honest = update(state, jnp.asarray([0.1, 0.2, -1e9, -1e9]), jnp.zeros(4, bool), jax.random.key(2))
+    np.testing.assert_array_equal(np.asarray(flagged.real), np.asarray(honest.real))
+    assert np.all(np.isfinite(np.asarray(flagged.real)))
+
+
+@pytest.mark.parametrize("method", es.METHODS)
+def test_stop_and_resume_equals_uninterrupted(tmp_path, method):
+    problem = analytic_problem("analytic:diverging:10")        # diverged samples along the way, too
+    cfg = es.ESConfig(method=method, samples=120, population=10, sigma=0.4, seed=3, chunk=4)
+    full, part = tmp_path / "full.h5", tmp_path / "part.h5"
+    run_search(problem, cfg, full)
+    assert run_search(problem, cfg, part, stop_after=5)["completed"] == 5    # a chunk of 4 and one more
+    assert run_search(problem, cfg, part, resume=True)["completed"] == 12
+    a, b = read_run(full), read_run(part)
+    same_rows(a, b)
+    assert a.kind == method and a.diverged.any() and set(a.state) == {"samples", "real", "count"}
+
+
+def test_config_is_checked():
+    assert es.ESConfig().generations == 150 and es.ESConfig(population=64).generations == 47
+    for bad in ({"method": "nes"}, {"method": "openes", "population": 7}, {"sigma": 0.0}, {"lr": -1.0},
+                {"population": 1}):
+        with pytest.raises(ValueError):
+            es.ESConfig(**bad)
+
+
+def test_the_command_line_knows_every_method():
+    assert cli_evolve.ES_METHODS == es.METHODS
