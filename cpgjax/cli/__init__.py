@@ -4,7 +4,7 @@ One module per command group, each with ``register(subparsers)``:
 :mod:`~cpgjax.cli.simulate` (simulate, robustness), :mod:`~cpgjax.cli.tools` (bench, study-dt),
 :mod:`~cpgjax.cli.crosscheck` (export, crosscheck, transfer), :mod:`~cpgjax.cli.render` (render),
 :mod:`~cpgjax.cli.evolve` (evolve, search, best, plot), :mod:`~cpgjax.cli.sweep` (sweep, report,
-notebook).  Command functions return an
+notebook), :mod:`~cpgjax.cli.validation` (servo).  Command functions return an
 exit code for a result (0; ``simulate`` 1 when the episode diverged) and *raise* on bad input.
 
 :func:`main` is the one place that maps errors to exit codes: bad input (cpgjax's own errors,
@@ -21,7 +21,7 @@ import sys
 
 from cpgjax.cli.options import Parser
 
-GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep")
+GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "validation")
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
