@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 THESIS_CUTOFF_HZ = 0.74  # Fig. 6.2
+MAX_TIME = 120.0         # s: the longest episode the experiment runs (its lowest frequency sets it)
 
 
 @dataclass(frozen=True)
@@ -64,6 +65,9 @@ def run_servo(model_path: str, cfg: ServoConfig = ServoConfig(), *, record_freq:
 
     if len(cfg.freqs) < 3 or min(cfg.freqs) <= 0 or min(cfg.amps) <= 0:
         raise ValueError("the servo experiment needs at least 3 frequencies > 0 and amplitudes > 0")
+    if cfg.time > MAX_TIME:
+        raise ValueError(f"the lowest frequency {min(cfg.freqs):g} Hz needs a {cfg.time:g} s episode "
+                         f"(settle + {cfg.periods} periods), more than {MAX_TIME:g} s; raise it or use fewer periods")
     rig = rig_model(model_path, cfg)
     window_start(np.asarray(cfg.freqs), cfg.time, cfg.settle)       # raises early on a bad window
     freqs, amps = np.asarray(cfg.freqs, float), np.asarray(cfg.amps, float)
