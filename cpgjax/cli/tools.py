@@ -32,6 +32,8 @@ def register(subparsers: Any) -> None:
                    help="the thesis's Table A.1: slowdown of one robot of each example (car, worm, hexapod, quadruped) "
                         "beside the 1999 figures, and per robot in a batch")
     b.add_argument("--a1-batch", type=o.count, default=256, help="--table-a1: the batch size (default 256)")
+    b.add_argument("--a1-examples", type=o.list_of(str, "expected example names, e.g. worm,quadruped"),
+                   default=None, help="--table-a1: only these examples (default car,worm,hexapod,quadruped)")
     b.add_argument("--json", action="store_true", help="--table-a1: print one JSON object instead of the table")
     b.set_defaults(func=cmd_bench)
 
@@ -74,7 +76,7 @@ def _table_a1(args: argparse.Namespace) -> int:
 
     models_dir = os.path.dirname(os.path.abspath(args.model))
     rows = bench.table_a1(models_dir, batch=args.a1_batch, time_s=args.time, chunk=args.chunk,
-                          progress=not args.json)
+                          examples=args.a1_examples, progress=not args.json)
     if args.json:
         print(json.dumps({"machine": bench.machine(), "rows": rows}))
     else:

@@ -320,13 +320,14 @@ def _batch(model, T, chunk, c):
 
 
 def table_a1(models_dir: str, *, batch: int = 256, time_s: float | None = None, chunk: int = 256,
-             progress: bool = True) -> list[dict]:
+             examples=None, progress: bool = True) -> list[dict]:
     """Table A.1: each example's slowdown (wall s per simulated s) alone and per robot in a batch.
 
     Per example (the thesis's model, its controller, its simulated time unless ``time_s``):
     ``slowdown_one``: one robot, `episode.rollout.rollout` jitted with B = 1 on one device (no padding);
     ``slowdown_per_robot``: ``batch`` copies through `episode.batch.evaluate` (every host device,
     chunks of ``chunk``), wall time / (batch x simulated time).  Compile time is apart (ahead of time).
+    ``examples``: names to run (default all four).
     """
     import jax
     import jax.numpy as jnp
@@ -336,9 +337,13 @@ def table_a1(models_dir: str, *, batch: int = 256, time_s: float | None = None, 
     from cpgjax.io.ctl import read_ctl
     from cpgjax.io.wl import load_model
 
+    known = [e[0] for e in THESIS_A1]
+    bad = [e for e in (examples or ()) if e not in known]
+    if bad:
+        raise ValueError(f"Table A.1 has no example {bad[0]!r} (it has {', '.join(known)})")
+    todo = [e for e in THESIS_A1 if examples is None or e[0] in examples]
     rows = []
-    for name, wl, ctl, dofs, t_thesis, slow in tqdm(THESIS_A1, desc="Table A.1", unit="example",
-                                                      disable=not progress):
+    for name, wl, ctl, dofs, t_thesis, slow in tqdm(todo, desc="Table A.1", unit="example", disable=not progress):
         model = load_model(os.path.join(models_dir, wl))
         T = t_thesis if time_s is None else float(time_s)
         if ctl is None:
