@@ -134,6 +134,10 @@ def fig_6_4(traces: dict, label: str = "") -> Figure:
     return fig
 
 
+def _times(x: float) -> str:
+    return f"{x:.2g}×" if x < 10 else f"{x:,.0f}×"
+
+
 def table_a1(rows: list[dict]) -> str:
     """Table A.1 (markdown) from `cpgjax.experiments.bench.table_a1`'s rows."""
     lines = ["| example | DOFs | simulated [s] | thesis slowdown (1999) | slowdown, 1 robot | "
@@ -141,6 +145,6 @@ def table_a1(rows: list[dict]) -> str:
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| {r['example']} | {r['dofs']} | {r['sim_time']:g} | {r['thesis_slowdown']:g} | "
-                     f"{r['slowdown_one']:.3g} | {r['thesis_slowdown'] / r['slowdown_one']:.0f}x | {r['batch']} | "
-                     f"{r['slowdown_per_robot']:.3g} | {r['slowdown_one'] / r['slowdown_per_robot']:.0f}x |")
+                     f"{r['slowdown_one']:.3g} | {_times(r['thesis_slowdown'] / r['slowdown_one'])} | {r['batch']} | "
+                     f"{r['slowdown_per_robot']:.3g} | {_times(r['slowdown_one'] / r['slowdown_per_robot'])} |")
     return "\n".join(lines)
