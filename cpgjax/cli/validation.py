@@ -56,7 +56,7 @@ def cmd_servo(args: argparse.Namespace) -> int:
 
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "servo.json"), "w") as f:
-            json.dump({k: v for k, v in out.items()}, f, indent=1, default=float)
+            json.dump(out, f, indent=1, default=float)
         with open(os.path.join(args.out, "servo.md"), "w") as f:
             f.write(table(out) + "\n")
         fig_6_2(out).savefig(os.path.join(args.out, "fig-6-2.png"), dpi=90)
