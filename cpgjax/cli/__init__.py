@@ -1,11 +1,11 @@
 """The ``cpgjax`` command line: :func:`build_parser` and :func:`main`.
 
 One module per command group, each with ``register(subparsers)``:
-:mod:`~cpgjax.cli.simulate` (simulate, robustness), :mod:`~cpgjax.cli.tools` (bench, study-dt),
-:mod:`~cpgjax.cli.crosscheck` (export, crosscheck, transfer), :mod:`~cpgjax.cli.render` (render),
-:mod:`~cpgjax.cli.evolve` (evolve, search, best, plot), :mod:`~cpgjax.cli.sweep` (sweep, report,
-notebook), :mod:`~cpgjax.cli.stability` (stability).  Command functions return an
-exit code for a result (0; ``simulate`` 1 when the episode diverged) and *raise* on bad input.
+:mod:`~cpgjax.cli.simulate` (simulate, robustness), :mod:`~cpgjax.cli.tools` (bench, study-dt,
+study-friction), :mod:`~cpgjax.cli.crosscheck` (export, crosscheck, transfer), :mod:`~cpgjax.cli.render`
+(render), :mod:`~cpgjax.cli.evolve` (evolve, search, best, plot), :mod:`~cpgjax.cli.sweep` (sweep, report,
+notebook), :mod:`~cpgjax.cli.stability` (stability), :mod:`~cpgjax.cli.validation` (servo).  Command
+functions return an exit code for a result (0; ``simulate`` 1 when the episode diverged) and *raise* on bad input.
 
 :func:`main` is the one place that maps errors to exit codes: bad input (cpgjax's own errors,
 ``ValueError``, a file that is missing, a folder, unreadable or unwritable) is one line
@@ -21,7 +21,7 @@ import sys
 
 from cpgjax.cli.options import Parser
 
-GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability")
+GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability", "validation")
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 

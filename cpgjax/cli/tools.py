@@ -7,6 +7,7 @@ import os
 from typing import Any
 
 from cpgjax.cli import options as o
+from cpgjax.errors import CpgjaxError
 
 
 def register(subparsers: Any) -> None:
@@ -18,7 +19,8 @@ def register(subparsers: Any) -> None:
     b.add_argument("--model", default=model, help="robot description (default: the quadruped)")
     b.add_argument("--batches", type=batches, default=list(DEFAULT_BATCHES),
                    help=f"comma-separated batch sizes (default {','.join(map(str, DEFAULT_BATCHES))})")
-    b.add_argument("--time", type=o.seconds, default=2.0, help="simulated seconds per episode (default 2)")
+    b.add_argument("--time", type=o.seconds, default=None,
+                   help="simulated seconds per episode (default 2; --table-a1: each example's time in the thesis)")
     b.add_argument("--chunk", type=o.count, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
     b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
@@ -29,6 +31,13 @@ def register(subparsers: Any) -> None:
     b.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="--sweep: the sweep in process vs on Ray (local instance, or the cluster at ADDRESS)")
     b.add_argument("--workers", type=o.count, default=2, help="--sweep --ray: Ray workers (default 2)")
+    b.add_argument("--table-a1", action="store_true",
+                   help="the thesis's Table A.1: slowdown of one robot of each example (car, worm, hexapod, quadruped) "
+                        "beside the 1999 figures, and per robot in a batch")
+    b.add_argument("--a1-batch", type=o.count, default=256, help="--table-a1: the batch size (default 256)")
+    b.add_argument("--a1-examples", type=o.list_of(str, "expected example names, e.g. worm,quadruped"),
+                   default=None, help="--table-a1: only these examples (default car,worm,hexapod,quadruped)")
+    b.add_argument("--json", action="store_true", help="--table-a1: print one JSON object instead of the table")
     b.set_defaults(func=cmd_bench)
 
     d = subparsers.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
@@ -80,6 +89,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from cpgjax.experiments import bench
 
     batches = tuple(args.batches)
+    if args.table_a1:
+        return _table_a1(args)
+    if args.time is None:
+        args.time = 2.0
+    if args.json:
+        raise CpgjaxError("--json is only for --table-a1 (the other tables are for reading)")
     if args.ray is not None and not args.sweep:
         raise ValueError("--ray is for --sweep (cpgjax bench --sweep --ray)")
     if args.sweep and args.ray is not None:
@@ -91,6 +106,23 @@ def cmd_bench(args: argparse.Namespace) -> int:
         bench.bench_against_mjx(args.model, batches=batches, time_s=args.time, chunk=args.chunk)
     else:
         bench.run_bench(args.model, batches=batches, time_s=args.time, chunk=args.chunk, tricks=args.tricks)
+    return 0
+
+
+def _table_a1(args: argparse.Namespace) -> int:
+    import json
+
+    from cpgjax.experiments import bench
+    from cpgjax.plots.validation import table_a1
+
+    models_dir = os.path.dirname(os.path.abspath(args.model))
+    rows = bench.table_a1(models_dir, batch=args.a1_batch, time_s=args.time, chunk=args.chunk,
+                          examples=args.a1_examples, progress=not args.json)
+    if args.json:
+        print(json.dumps({"machine": bench.machine(), "rows": rows}))
+    else:
+        print(f"machine: {bench.machine()}")
+        print(table_a1(rows))
     return 0
 
 

@@ -166,3 +166,39 @@ def _plots(model, pen, mj_q, i, label, out_dir, mj_dt, time):
     fig.tight_layout()
     fig.savefig(os.path.join(out_dir, "cm_path.png"), dpi=90)
     plt.close(fig)
+
+
+def traces(model, coeffs, *, time: float, delta: float = 8.0) -> list[dict]:
+    """Joint angles and CM paths of N controllers [N, n_ctrl, 2K+1] in the penalty simulator and MuJoCo C.
+
+    One dict per controller (thesis Figs. 6.3-6.4, MuJoCo in the place of the robot): ``joint_names``;
+    ``penalty`` and ``mujoco``: ``t`` [S], ``angle`` [S, nj], ``cm`` [S, 3] of the tracked body and the
+    episode's ``distance``, ``speed``, ``fitness``; ``target``: the CPG target [S] of each controlled
+    joint (at the penalty simulator's samples).  Both engines run all controllers in one batch.
+    """
+    from cpgjax.crosscheck.engines import metrics_from_qpos
+    from cpgjax.crosscheck.mjcf import load
+    from cpgjax.episode.batch import simulate
+
+    coeffs = np.asarray(coeffs, float)
+    pen = simulate(model, coeffs, time=time, delta=delta, record=True)
+    mj = load(model)
+    mj_met, mj_q, _ = mujoco_run(model, coeffs, time=time, delta=delta, mj=mj)
+    tr = pen["traj"]
+    names = list(model.joint_names)
+    ang_mj = joint_angles(model, mj, mj_q)
+    cm_mj = metrics_from_qpos(model, mj, mj_q, mj.opt.timestep, delta)["cm"]
+    t_mj = np.arange(mj_q.shape[1]) * mj.opt.timestep
+    out = []
+    for i in range(len(coeffs)):
+        m = {k: {e: float(np.asarray(r[k])[i]) for e, r in (("penalty", pen), ("mujoco", mj_met))}
+             for k in ("distance", "speed", "fitness")}
+        out.append({
+            "joint_names": names,
+            "penalty": {"t": np.asarray(tr["t"]), "angle": np.asarray(tr["angle"])[:, :, i],
+                        "cm": np.asarray(tr["x"])[:, :, model.track, i],
+                        **{k: m[k]["penalty"] for k in m}},
+            "mujoco": {"t": t_mj, "angle": ang_mj[i], "cm": cm_mj[i], **{k: m[k]["mujoco"] for k in m}},
+            "target": {names[j]: np.asarray(tr["target"])[:, c, i] for c, j in enumerate(model.ctrl_joint)},
+        })
+    return out

@@ -180,3 +180,51 @@ def spearman(a, b) -> float:
     if ra.std() == 0 or rb.std() == 0:
         return float("nan")
     return float(np.corrcoef(ra, rb)[0, 1])
+
+
+def mujoco_track(model, freq, amp, *, center=None, time: float, settle: float, ctrl: int = 0,
+                 timestep: float | None = None, record: bool = False, nthread: int | None = None) -> dict:
+    """The servo experiment of `cpgjax.episode.tracking.tracking_rollout` in MuJoCo C, on the exported rig.
+
+    Same drive ``center + amp sin(2 pi freq t)`` on controlled joint ``ctrl`` (others held at
+    ``center``), same error window, same statistics (``err``, ``ref``, ``rel`` [B]); the step is
+    the penalty model's ``dt`` unless ``timestep`` is given.
+    """
+    import os
+
+    import mujoco
+    from mujoco import rollout
+
+    from cpgjax.episode.tracking import window_start
+
+    mj = load(model, timestep=timestep or model.dt)
+    dt = mj.opt.timestep
+    nstep = int(round(time / dt))
+    f = np.asarray(freq, float)[:, None]
+    a = np.asarray(amp, float)[:, None]
+    t = np.arange(nstep) * dt                       # control at the start of each step
+    cj = model.ctrl_joint
+    c = np.asarray(model.j_q0[cj] if center is None else center, float)
+    ratio = np.where(model.j_kp[cj] > 0, model.j_kd[cj] / np.maximum(model.j_kp[cj], 1e-12), 0.0)
+    u = np.repeat(np.repeat(c[None, None], len(f), 0), nstep, 1)
+    w = 2 * np.pi * f
+    u[:, :, ctrl] = c[ctrl] + a * np.sin(w * t) + ratio[ctrl] * a * w * np.cos(w * t)
+    d = mujoco.MjData(mj)
+    d.qpos[:] = initial_qpos(model, mj)
+    mujoco.mj_forward(mj, d)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    x0 = np.zeros(mujoco.mj_stateSize(mj, spec))
+    mujoco.mj_getState(mj, d, x0, spec)
+    nthread = nthread or os.cpu_count() or 1
+    with rollout.Rollout(nthread=nthread) as r:
+        state, _ = r.rollout(mj, [mujoco.MjData(mj) for _ in range(nthread)], x0[None], u)
+    angle = joint_angles(model, mj, state[..., 1:1 + mj.nq])[..., int(cj[ctrl])]   # [B, nstep] after each step
+    t1 = (np.arange(nstep) + 1) * dt
+    target = c[ctrl] + a * np.sin(w * t1)
+    m = t1[None] > window_start(f[:, 0], nstep * dt, settle)[:, None] + 0.5 * dt
+    e = (np.abs(target - angle) * m).sum(1)
+    ref = (np.abs(target - c[ctrl]) * m).sum(1)
+    out = {"err": e / m.sum(1), "ref": ref / m.sum(1), "rel": e / np.maximum(ref, 1e-30)}
+    if record:
+        out.update(angle=angle.T, target=target.T, t=t1)
+    return out

@@ -58,3 +58,21 @@ def test_stability_notebook_tiny(tmp_path):
     assert "hexapod" in claims and claims.count("**") >= 16        # a verdict in every row
     text = executed.read_text()
     assert "scale tiny" in text and "Traceback" not in text
+
+
+def test_validation_notebook_tiny(tmp_path):
+    """notebooks/validation.ipynb (Figs. 6.1-6.4, Table A.1, claims) at tiny scale."""
+    pytest.importorskip("nbclient")
+    pytest.importorskip("ipykernel")
+    executed = tmp_path / "executed.ipynb"
+    args = ["notebook", os.path.join(ROOT, "notebooks", "validation.ipynb"), "--scale", "tiny",
+            "--sweep-dir", str(tmp_path / "out"), "--fig-dir", str(tmp_path / "figures"), "--out", str(executed)]
+    assert cli.main(args) == 0
+    figs = sorted(os.listdir(tmp_path / "figures"))
+    assert figs == sorted(["fig-6-1.png", "fig-6-2.png"] + [f"fig-6-{i}-{g}.png" for i in (3, 4)
+                                                               for g in ("trot", "evolved")])
+    assert all(os.path.getsize(tmp_path / "figures" / f) > 10_000 for f in figs)
+    claims = (tmp_path / "out" / "claims.md").read_text()
+    assert "0.74 Hz" in claims and "Table A.1" in claims and claims.count("\n|") >= 6
+    text = executed.read_text()
+    assert "scale tiny" in text and "Traceback" not in text and '"image/png"' in text

@@ -1,0 +1,28 @@
+"""``cpgjax bench --table-a1``: Table A.1's rows (tiny: one example, a short episode, a small batch)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from cpgjax.cli import main
+
+
+def test_table_a1_json_row(capsys):
+    rc = main(["bench", "--table-a1", "--a1-examples", "worm", "--time", "0.05", "--a1-batch", "4", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    (row,) = out["rows"]
+    assert row["example"] == "worm" and row["dofs"] == row["thesis_dofs"] == 4
+    assert row["thesis_slowdown"] == 1.0 and row["thesis_time"] == 15.0 and row["batch"] == 4
+    assert row["sim_time"] == pytest.approx(0.05)
+    assert row["slowdown_one"] > 0 and row["slowdown_per_robot"] == pytest.approx(row["slowdown_batch"] / 4)
+    assert "cores" in out["machine"]
+
+
+def test_table_a1_bad_input(capsys):
+    assert main(["bench", "--table-a1", "--a1-examples", "snake", "--time", "0.05"]) == 2
+    assert "no example 'snake'" in capsys.readouterr().err
+    assert main(["bench", "--json"]) == 2
+    assert "--json is only for --table-a1" in capsys.readouterr().err
