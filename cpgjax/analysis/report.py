@@ -285,11 +285,9 @@ def _best_and_single(s: dict[str, Any]) -> str:
 
 
 def ga_against_evolution_strategies(ctx: Sweep) -> list[str]:
-    """Not in the thesis: the best GA setting against each evolution strategy of evosax on the same budget.
-
-    Best fitness found, mean ± sd over seeds and the thesis-style single best trial; "ahead"/"behind"
-    when the means differ by more than 2 standard errors of their difference, else "level".
-    """
+    """Beside Fig. 6.12, not in the thesis: the best GA setting against each evosax strategy, same budget."""
+    # best fitness found, mean ± sd over seeds and the thesis-style single best trial; "ahead"/"behind"
+    # when the means differ by more than 2 standard errors of their difference, else "level"
     if ctx.best_ga is None or not ctx.es:
         return []
     cg, sg = ctx.best_ga

@@ -10,7 +10,7 @@ from cpgjax.cli import main
 CLAIM_NAMES = ["pocketing_doubles_the_plateau", "pocketing_reduces_oscillation", "large_gamma_plateaus_early",
                "smaller_gamma_higher_plateau", "crossover_no_gain", "crossover_keeps_oscillating",
                "crossover_more_diverse", "random_search_half_the_ga", "random_search_mean_zero",
-               "adaptive_mc_positive_mean", "ga_twice_the_others"]
+               "adaptive_mc_positive_mean", "ga_twice_the_others", "ga_against_evolution_strategies"]
 # the claim that needs three γ; the tiny sweep has two
 NEEDS_THREE_GAMMAS = {"smaller_gamma_higher_plateau"}
 
@@ -19,7 +19,7 @@ NEEDS_THREE_GAMMAS = {"smaller_gamma_higher_plateau"}
 def sweep(tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep") / "tiny"
     main(["sweep", "analytic:sphere:10", "--gamma", "0,1", "--pocket", "0,2", "--crossover", "off,on",
-          "--population", "6", "--generations", "6", "--seeds", "2", "--baselines", "random,amc3",
+          "--population", "6", "--generations", "6", "--seeds", "2", "--baselines", "random,amc3,cmaes",
           "--out", str(out), "--quiet"])
     return out
 
