@@ -24,7 +24,7 @@ from cpgjax.crosscheck.engines import mujoco_run, spearman
 from cpgjax.crosscheck.mjcf import load
 from cpgjax.episode.batch import simulate
 from cpgjax.io.results import read_run
-from cpgjax.io.sweepdir import find_runs
+from cpgjax.io.sweepdir import run_files
 from cpgjax.io.wl import parse_wl
 from cpgjax.sim.model import build_model
 
@@ -57,19 +57,6 @@ class Replay:
         return bool(self.ratio >= MIN_RATIO and self.mujoco_jit["falls"] <= MAX_FALLS)
 
 
-def run_files(paths) -> list[str]:
-    """RUN.h5 files, and every run file under each sweep folder given."""
-    out: list[str] = []
-    for p in paths:
-        p = os.fspath(p)
-        if os.path.isdir(p):
-            found = [f for fs in find_runs(p).values() for f in fs]
-            if not found:
-                raise ValueError(f"{p}: no run files (<cell>/s<seed>.h5) in this folder")
-            out += found
-        else:
-            out.append(p)
-    return out
 
 
 def _setting(run) -> tuple[str, float | None, str | None]:

@@ -233,21 +233,6 @@ def _model_of(run):
     return model, float(cli.get("time") or run.meta.get("time") or model.time_max)
 
 
-def run_files(paths) -> list[str]:
-    """RUN.h5 files, and every run file under each sweep folder given."""
-    from cpgjax.io.sweepdir import find_runs
-
-    out: list[str] = []
-    for p in paths:
-        p = os.fspath(p)
-        if os.path.isdir(p):
-            found = [f for fs in find_runs(p).values() for f in fs]
-            if not found:
-                raise ValueError(f"{p}: no run files (<cell>/s<seed>.h5) in this folder")
-            out += found
-        else:
-            out.append(p)
-    return out
 
 
 def controllers_of(run, which: str = "final", top: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -274,6 +259,7 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
     """Score the controllers of every run (grouped per GA setting) under the perturbations, in one batch."""
     from cpgjax.analysis.cells import load_cells
     from cpgjax.io.results import read_run
+    from cpgjax.io.sweepdir import run_files
 
     files = run_files(paths)
     cells = load_cells(files)

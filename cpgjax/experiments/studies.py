@@ -101,9 +101,9 @@ def friction_study(model_path: str, ctl_path: str, springs, *, runs=(), replays:
     from cpgjax.crosscheck.compare import controllers
     from cpgjax.crosscheck.engines import mujoco_run, spearman
     from cpgjax.crosscheck.mjcf import load
-    from cpgjax.crosscheck.transfer import run_files
     from cpgjax.episode.batch import simulate
     from cpgjax.io.results import read_run
+    from cpgjax.io.sweepdir import run_files
     from cpgjax.io.wl import load_model
 
     base = load_model(model_path)

@@ -53,3 +53,16 @@ def same_setting(a: Any, b: Any) -> bool:
     return a == b
 
 
+def run_files(paths) -> list[str]:
+    """RUN.h5 files, and every run file under each sweep folder given (``cpgjax transfer``, ``stability``...)."""
+    out: list[str] = []
+    for p in paths:
+        p = os.fspath(p)
+        if os.path.isdir(p):
+            found = [f for fs in find_runs(p).values() for f in fs]
+            if not found:
+                raise ValueError(f"{p}: no run files (<cell>/s<seed>.h5) in this folder")
+            out += found
+        else:
+            out.append(p)
+    return out
