@@ -73,17 +73,13 @@ def joint_angles(model, mj, qpos):
     return qpos[..., adr]
 
 
-def mujoco_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, timestep: float = MJ_TIMESTEP,
-               nthread: int | None = None, mj=None):
-    """Roll out N controllers in MuJoCo C (native threaded rollout). Returns metrics, qpos [N, S, nq], wall."""
+def _rollout_from_rest(model, mj, ctrl: np.ndarray, nthread: int | None):
+    """(x0, states [N, nstep, ...]): MuJoCo C's threaded rollout of controls [N, nstep, nu] from the initial pose."""
     import os
 
     import mujoco
     from mujoco import rollout
 
-    mj = mj if mj is not None else load(model, timestep=timestep)
-    nstep = int(round(time / mj.opt.timestep))
-    ctrl = controls(model, coeffs, nstep, mj.opt.timestep)
     d = mujoco.MjData(mj)
     d.qpos[:] = initial_qpos(model, mj)
     mujoco.mj_forward(mj, d)
@@ -91,9 +87,21 @@ def mujoco_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, time
     x0 = np.zeros(mujoco.mj_stateSize(mj, spec))
     mujoco.mj_getState(mj, d, x0, spec)
     nthread = nthread or os.cpu_count() or 1
-    t0 = _time.perf_counter()
     with rollout.Rollout(nthread=nthread) as r:
         state, _ = r.rollout(mj, [mujoco.MjData(mj) for _ in range(nthread)], x0[None], ctrl)
+    return x0, state
+
+
+def mujoco_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, timestep: float = MJ_TIMESTEP,
+               nthread: int | None = None, mj=None):
+    """Roll out N controllers in MuJoCo C (native threaded rollout). Returns metrics, qpos [N, S, nq], wall."""
+
+
+    mj = mj if mj is not None else load(model, timestep=timestep)
+    nstep = int(round(time / mj.opt.timestep))
+    ctrl = controls(model, coeffs, nstep, mj.opt.timestep)
+    t0 = _time.perf_counter()
+    x0, state = _rollout_from_rest(model, mj, ctrl, nthread)
     wall = _time.perf_counter() - t0
     qpos = np.concatenate([np.repeat(x0[None, None, 1:1 + mj.nq], len(ctrl), 0), state[..., 1:1 + mj.nq]], 1)
     return _metrics(model, mj, qpos, mj.opt.timestep, delta), qpos, wall
@@ -190,10 +198,7 @@ def mujoco_track(model, freq, amp, *, center=None, time: float, settle: float, c
     ``center``), same error window, same statistics (``err``, ``ref``, ``rel`` [B]); the step is
     the penalty model's ``dt`` unless ``timestep`` is given.
     """
-    import os
 
-    import mujoco
-    from mujoco import rollout
 
     from cpgjax.episode.tracking import window_start
 
@@ -209,15 +214,7 @@ def mujoco_track(model, freq, amp, *, center=None, time: float, settle: float, c
     u = np.repeat(np.repeat(c[None, None], len(f), 0), nstep, 1)
     w = 2 * np.pi * f
     u[:, :, ctrl] = c[ctrl] + a * np.sin(w * t) + ratio[ctrl] * a * w * np.cos(w * t)
-    d = mujoco.MjData(mj)
-    d.qpos[:] = initial_qpos(model, mj)
-    mujoco.mj_forward(mj, d)
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    x0 = np.zeros(mujoco.mj_stateSize(mj, spec))
-    mujoco.mj_getState(mj, d, x0, spec)
-    nthread = nthread or os.cpu_count() or 1
-    with rollout.Rollout(nthread=nthread) as r:
-        state, _ = r.rollout(mj, [mujoco.MjData(mj) for _ in range(nthread)], x0[None], u)
+    _, state = _rollout_from_rest(model, mj, u, nthread)
     angle = joint_angles(model, mj, state[..., 1:1 + mj.nq])[..., int(cj[ctrl])]   # [B, nstep] after each step
     t1 = (np.arange(nstep) + 1) * dt
     target = c[ctrl] + a * np.sin(w * t1)

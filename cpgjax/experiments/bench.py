@@ -227,6 +227,17 @@ def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 
     return rows
 
 
+def _thesis_cells_for(preset: str, generations: int) -> list:
+    """The cells of ``cpgjax sweep --preset PRESET``, each cut to ``generations`` generations."""
+    import dataclasses
+
+    from cpgjax.experiments import sweep
+    from cpgjax.optim import ga
+
+    return [dataclasses.replace(c, generations=generations) if isinstance(c, ga.GAConfig)
+            else dataclasses.replace(c, samples=c.batch * generations) for c in sweep.thesis_cells(preset)]
+
+
 def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, seeds: int = 5,
                 preset: str = "full", progress: bool = True) -> dict:
     """Evaluations per second of one GA run against a sweep of the thesis experiment, side by side.
@@ -236,7 +247,6 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
     XLA program, both for ``generations`` generations of ``time_s`` s episodes.  Compile time
     apart; "cores busy" is the process's CPU seconds per wall second (2 = both cores of this machine).
     """
-    import dataclasses
     import tempfile
 
     import jax
@@ -247,12 +257,7 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
     print(f"machine: {machine()}, {len(jax.devices())} host devices")
     print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run")
     pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None}
-    cells = []
-    for c in sweep.thesis_cells(preset):
-        if isinstance(c, ga.GAConfig):
-            cells.append(dataclasses.replace(c, generations=generations))
-        else:
-            cells.append(dataclasses.replace(c, samples=c.batch * generations))
+    cells = _thesis_cells_for(preset, generations)
     rows = []
 
     problem = sweep.sweep_problem(pa)
@@ -297,23 +302,16 @@ def bench_sweep_ray(model_path: str, *, time_s: float = 2.0, generations: int = 
     compiled (Ray: the workers' rates summed); "end to end" is every evaluation over the whole wall time,
     Ray's start, the workers' start-up and compilation included: their difference is Ray's overhead.
     """
-    import dataclasses
     import tempfile
 
     from cpgjax.experiments import sweep
     from cpgjax.experiments.sweep import cluster
-    from cpgjax.optim import ga
 
     cluster.require_ray()
     print(f"machine: {machine()}")
     print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run, {seeds} seeds")
     pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None}
-    cells = []
-    for c in sweep.thesis_cells(preset):
-        if isinstance(c, ga.GAConfig):
-            cells.append(dataclasses.replace(c, generations=generations))
-        else:
-            cells.append(dataclasses.replace(c, samples=c.batch * generations))
+    cells = _thesis_cells_for(preset, generations)
     rows = []
     with tempfile.TemporaryDirectory() as d:
         specs = sweep.plan(os.path.join(d, "here"), cells, range(seeds))
