@@ -6,9 +6,9 @@ the robot) follows ``A sin(2 pi f t)`` for every frequency x amplitude at once, 
 in one batch; the same drive runs in MuJoCo C on the exported rig.  Per amplitude and engine:
 the relative mean absolute error vs frequency, the thesis's sigmoid fit and the cut-off at its
 steepest slope (`cpgjax.analysis.cutoff`), beside the robot's 0.74 Hz.  A linear closed form
-(``kp``, ``kd``, the inertia the joint moves, no gravity or saturation) is given for both the
-nominal ``kd`` and the ``kd`` the penalty simulator effectively applies (its implicit damper,
-``kd / (1 + dt kd / I_eff)``, `cpgjax.sim.joints.implicit_damping`).
+(``kp``, ``kd``, the inertia the joint moves, no gravity or saturation) is drawn beside them; the
+penalty simulator's servo delivers the nominal ``kd`` (its derivative is backward Euler over the
+step, `cpgjax.sim.servo.servo_torques`), up to a first-order error in ``dt``.
 """
 
 from __future__ import annotations
@@ -92,15 +92,14 @@ def run_servo(model_path: str, cfg: ServoConfig = ServoConfig(), *, record_freq:
     j = int(rig.ctrl_joint[0])
     inertia = axis_inertia(rig)
     kp, kd, tmax = float(rig.j_kp[j]), float(rig.j_kd[j]), float(rig.j_taumax[j])
-    kd_eff = kd / (1.0 + rig.dt * kd * float(rig.j_inv_ieff[j]))
     out = {"config": {**asdict(cfg), "time": cfg.time}, "model": model_path, "joint": cfg.joint,
            "freqs": freqs.tolist(), "amps": amps.tolist(),
-           "servo": {"kp": kp, "kd": kd, "kd_effective": kd_eff, "tau_max": tmax, "inertia": inertia,
+           "servo": {"kp": kp, "kd": kd, "tau_max": tmax, "inertia": inertia,
                      "dt": rig.dt, "natural_hz": float(np.sqrt(kp / inertia) / (2 * np.pi)),
                      "damping_ratio": kd / (2 * np.sqrt(kp * inertia))},
            "closed_form": {}, "engines": {}, "wall_s": wall}
     fine = np.linspace(freqs.min(), freqs.max(), 400)
-    for name, k in (("nominal", kd), ("effective", kd_eff)):
+    for name, k in (("nominal", kd),):
         y = linear_servo_error(freqs, inertia, kp, k)
         out["closed_form"][name] = {"kd": k, "rel": y.tolist(), "cutoff_hz": fit_sigmoid(freqs, y)["b"],
                                     "fine": linear_servo_error(fine, inertia, kp, k).tolist()}
@@ -128,7 +127,7 @@ def summary(out: dict) -> dict:
     s = {"joint": out["joint"], "thesis_cutoff_hz": THESIS_CUTOFF_HZ, "amps": out["amps"]}
     for name, e in out["engines"].items():
         s[f"{name}_cutoff_hz"] = [round(b, 3) for b in e["cutoff_hz"]]
-    for name in ("nominal", "effective"):
+    for name in ("nominal",):
         s[f"linear_{name}_cutoff_hz"] = round(out["closed_form"][name]["cutoff_hz"], 3)
     sv = out["servo"]
     s.update({k: round(v, 6) for k, v in sv.items()})
@@ -145,7 +144,6 @@ def table(out: dict) -> str:
     sv = out["servo"]
     cf = out["closed_form"]
     lines += ["", f"linear closed form (I = {sv['inertia']:.3g} kg m², kp = {sv['kp']:g} N m/rad, no gravity, "
-                  f"no saturation): cut-off {cf['nominal']['cutoff_hz']:.1f} Hz with kd = {sv['kd']:g}, "
-                  f"{cf['effective']['cutoff_hz']:.1f} Hz with the penalty simulator's effective "
-                  f"kd = {sv['kd_effective']:.3g} N m s/rad; the thesis's robot: {THESIS_CUTOFF_HZ} Hz"]
+                  f"no saturation): cut-off {cf['nominal']['cutoff_hz']:.1f} Hz with kd = {sv['kd']:g} N m s/rad; "
+                  f"the thesis's robot: {THESIS_CUTOFF_HZ} Hz"]
     return "\n".join(lines)

@@ -47,8 +47,6 @@ def fig_6_2(out: dict) -> Figure:
     ff = np.asarray(cf["fine_freqs"])
     ax.plot(ff, cf["nominal"]["fine"], color="0.4", lw=0.8,
             label=f"linear PD on the inertia, kd = {cf['nominal']['kd']:.3g}: {cf['nominal']['cutoff_hz']:.1f} Hz")
-    ax.plot(ff, cf["effective"]["fine"], color="0.7", lw=0.8,
-            label=f"same, effective kd = {cf['effective']['kd']:.3g}: {cf['effective']['cutoff_hz']:.1f} Hz")
     ax.axvline(out["summary"]["thesis_cutoff_hz"], color="k", lw=0.8, ls=":")
     ax.text(out["summary"]["thesis_cutoff_hz"], 1.02, " robot (thesis): 0.74 Hz", fontsize=8, va="bottom")
     ax.set_xlabel("drive frequency [Hz]")

@@ -13,14 +13,12 @@ import jax.numpy as jnp
 from cpgjax.sim.joints import implicit_damping
 
 
-def servo_torques(model, angle, rate, target, target_rate, e_int, gain=None):
-    """Torque [nj, B] about each joint axis (zero on passive joints) and d(e_int)/dt [nctrl, B].
+def servo_gains(model, gain=None):
+    """kp, ki, kd (implicit, see `joints.implicit_damping`) and the torque limit [nctrl, B|1].
 
     ``gain`` [nctrl, B] (a :class:`~cpgjax.sim.variation.Variation`) scales kp, ki and kd per robot.
     """
     cj = model.ctrl_joint
-    err = target - angle[cj]
-    derr = target_rate - rate[cj]
     kp, ki, tmax = (g[cj][:, None] for g in (model.j_kp, model.j_ki, model.j_taumax))
     if gain is None:
         kd = implicit_damping(model, model.j_kd)[cj]
@@ -28,6 +26,24 @@ def servo_torques(model, angle, rate, target, target_rate, e_int, gain=None):
         kp, ki = kp * gain, ki * gain
         c = model.j_kd[cj][:, None] * gain
         kd = c / (1.0 + model.dt * c * model.j_inv_ieff[cj][:, None])
-    tau_c = jnp.clip(kp * err + ki * e_int + kd * derr, -tmax, tmax)
-    tau = jnp.zeros_like(angle).at[cj].set(tau_c) if len(cj) else jnp.zeros_like(angle)
-    return tau, err
+    return kp, ki, kd, tmax
+
+
+def servo_pi(model, angle, target, e_int, gain=None):
+    """The proportional and integral part of the servo torque [nctrl, B] and the error [nctrl, B]."""
+    kp, ki, _, _ = servo_gains(model, gain)
+    err = target - angle[model.ctrl_joint]
+    return kp * err + ki * e_int, err
+
+
+def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None):
+    """Servo torque [nctrl, B]: ``clip(PI + kd' (dq*/dt - q'), -tau_max, tau_max)``.
+
+    The derivative is backward Euler on the joint's two bodies: ``q'`` [nctrl, B] is the joint
+    rate the step would give under every other force and torque, the PI torque included, and
+    ``kd' = kd / (1 + dt kd / I_eff)`` (`joints.implicit_damping`), so that in slow motion the
+    damper delivers the nominal ``kd``.  (With the rate at the start of the step in place of
+    ``q'`` it would deliver ``kd'``, 0.45 kd on the quadruped's knee at 0.5 ms.)
+    """
+    _, _, kd, tmax = servo_gains(model, gain)
+    return jnp.clip(tau_pi + kd * (target_rate - rate_pred), -tmax, tmax)

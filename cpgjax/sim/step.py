@@ -15,8 +15,8 @@ import numpy as np
 from cpgjax.sim.bodies import accelerations, force_accelerations, integrate
 from cpgjax.sim.contact import contact_body_ranges, contact_forces
 from cpgjax.sim.joints import joint_angles, limit_torques, pivot_spring_forces
-from cpgjax.sim.rotation import cross, matvec, quat_to_mat
-from cpgjax.sim.servo import servo_torques
+from cpgjax.sim.rotation import cross, dot, matvec, quat_to_mat
+from cpgjax.sim.servo import servo_pi, servo_torques
 
 
 def point_kinematics(model, state, R):
@@ -27,15 +27,16 @@ def point_kinematics(model, state, R):
 
 
 def sum_onto_bodies(model, f_pt, torque_joint):
-    """Sum point forces [3, npt, B] and joint torques [3, nj, B] onto bodies [3, nb, B].
+    """Sum point forces [3, npt, B] (or None) and joint torques [3, nj, B] onto bodies [3, nb, B].
 
     Static slices and sums in a fixed order: bitwise the same result for any batch size.
     """
-    zero = jnp.zeros((3, f_pt.shape[-1]), f_pt.dtype)
+    some = f_pt if f_pt is not None else torque_joint
+    zero = jnp.zeros((3, some.shape[-1]), some.dtype)
     out = []
     for b in range(model.nb):
         lo, hi = int(model.pt_start[b]), int(model.pt_start[b + 1])
-        acc = f_pt[:, lo:hi].sum(1) if hi > lo else zero
+        acc = f_pt[:, lo:hi].sum(1) if f_pt is not None and hi > lo else zero
         if torque_joint is not None:
             for j in np.nonzero(model.j_b == b)[0]:
                 acc = acc + torque_joint[:, j]
@@ -59,20 +60,40 @@ def sum_contacts_onto_bodies(model, f, r):
 
 
 def forces(model, state, ctrl, var=None):
-    """Force and torque on every body [3, nb, B] from everything but the ground, plus what the contacts need."""
-    target, target_rate = ctrl
+    """Force and torque on every body [3, nb, B] from everything but the ground and the servos'
+    derivative term, plus what the servos and the contacts need."""
+    target, _ = ctrl
     R = quat_to_mat(state.q)
     r, p, pv = point_kinematics(model, state, R)
     fs = pivot_spring_forces(model, p, pv)
     no_contact = jnp.zeros((3, len(model.ct_pt), fs.shape[-1]), fs.dtype)
     f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.pt_src]
     angle, rate, axis = joint_angles(model, R, state.w)
-    tau_servo, err = servo_torques(model, angle, rate, target, target_rate, state.e_int,
-                                   None if var is None else var.gain)
-    tau = tau_servo + limit_torques(model, angle, rate)
+    tau_pi, err = servo_pi(model, angle, target, state.e_int, None if var is None else var.gain)
+    tau = limit_torques(model, angle, rate).at[model.ctrl_joint].add(tau_pi)
     force = sum_onto_bodies(model, f_pt, None)
     torque = sum_onto_bodies(model, cross(r, f_pt), tau * axis)
-    return R, r, p, pv, force, torque, err
+    return R, r, p, pv, force, torque, err, (rate, axis, tau_pi)
+
+
+def servo_derivative(model, R, ctrl, joints, alpha, var=None):
+    """Angular accelerations [3, nb, B] added by the servos' saturated derivative term (`servo`).
+
+    ``alpha``: the bodies' angular accelerations under every other force and torque, from which
+    the joint rates at the end of the step are predicted.
+    """
+    cj = model.ctrl_joint
+    if not len(cj):
+        return jnp.zeros_like(alpha)
+    rate, axis, tau_pi = joints
+    ja, jb = model.j_a[cj], model.j_b[cj]
+    rate_pred = rate[cj] + model.dt * dot(alpha[:, jb] - alpha[:, ja], axis[:, cj])
+    gain = None if var is None else var.gain
+    extra = servo_torques(model, tau_pi, rate_pred, ctrl[1], gain) - tau_pi
+    tau = jnp.zeros_like(rate).at[cj].set(extra)
+    _, al = force_accelerations(model, R, jnp.zeros_like(alpha), sum_onto_bodies(model, None, tau * axis),
+                                None if var is None else var.mass)
+    return al
 
 
 def step(model, state, ctrl, var=None):
@@ -81,8 +102,9 @@ def step(model, state, ctrl, var=None):
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (``None``: the nominal robot).
     """
     scale = None if var is None else var.mass
-    R, r, p, pv, force, torque, err = forces(model, state, ctrl, var)
+    R, r, p, pv, force, torque, err, joints = forces(model, state, ctrl, var)
     a, alpha = accelerations(model, R, state.w, force, torque, scale)
+    alpha = alpha + servo_derivative(model, R, ctrl, joints, alpha, var)
     fc, _, anchor, f_n = contact_forces(model, R, r, p, pv, a, alpha, state.anchor, state.f_n, var)
     ac, alc = force_accelerations(model, R, *sum_contacts_onto_bodies(model, fc, r[:, model.ct_pt]), scale)
     new = integrate(state, a + ac, alpha + alc, model.dt)
