@@ -130,15 +130,17 @@ def _controllers(args, model_path: str) -> int:
     return 0
 
 
-def population_table(study) -> str:
-    """Markdown: fall probability (mean ± sd over seeds) per GA setting and condition."""
+def population_table(study, what: str = "fall") -> str:
+    """Markdown: fall probability (``what="fall"``) or mean time to fall in s (``"time_to_fall"``), mean ± sd
+    over seeds, per GA setting and condition."""
     s = study.summary()
     head = "| GA setting | runs | " + " | ".join(study.groups) + " | all perturbed |"
     lines = [head, "|" + "---|" * (len(study.groups) + 3)]
+    fmt = ".2f" if what == "fall" else ".1f"
     for lab in study.labels:
         r = s[lab]
-        cells = [f"{r['fall'][g]['mean']:.2f} ± {r['fall'][g]['sd']:.2f}" for g in study.groups]
-        lines.append(f"| {lab} | {r['runs']} | " + " | ".join(cells) + f" | {r['fall_perturbed']:.2f} |")
+        cells = [f"{r[what][g]['mean']:{fmt}} ± {r[what][g]['sd']:{fmt}}" for g in study.groups]
+        lines.append(f"| {lab} | {r['runs']} | " + " | ".join(cells) + f" | {r[what + '_perturbed']:{fmt}} |")
     return "\n".join(lines)
 
 
@@ -150,9 +152,9 @@ def _population(args) -> int:
     os.makedirs(args.out, exist_ok=True)
     summary = {"inputs": args.inputs, "controllers_per_run": study.controllers, "which": args.which,
                "groups": study.groups, "settings": study.summary(), "config": study.config}
-    ranking = sorted(study.labels, key=lambda lab: summary["settings"][lab]["fall_perturbed"])
+    ranking, summary["most_robust"] = study.ranking()      # None: a tie
+    summary["ranking"] = ranking
     falls = [summary["settings"][lab]["fall_perturbed"] for lab in ranking]
-    summary["most_robust"] = ranking[0] if len(ranking) == 1 or falls[0] < falls[1] else None   # None: a tie
     from cpgjax.io.ctl import write_ctl
 
     summary["picks"] = {}
@@ -163,18 +165,22 @@ def _population(args) -> int:
     with open(os.path.join(args.out, "population.json"), "w") as f:
         json.dump(summary, f, indent=1)
     fall_probability(study).savefig(os.path.join(args.out, "population.png"), dpi=110)
+    fall_probability(study, "time_to_fall").savefig(os.path.join(args.out, "population-time.png"), dpi=110)
     text = (f"Fall probability of the {args.which} controllers ({study.controllers} per run) of each GA setting, "
-            "mean ± sd over seeds\n\n" + population_table(study) + "\n")
+            "mean ± sd over seeds\n\n" + population_table(study) + "\n\nMean time to fall [s] (the episode's "
+            "length for a controller that stays up), mean ± sd over seeds\n\n"
+            + population_table(study, "time_to_fall") + "\n")
     with open(os.path.join(args.out, "population.md"), "w") as f:
         f.write(text)
     if args.json:
         print(json.dumps(summary))
     else:
         print(text)
-        print("most robust (lowest fall probability over all perturbations): "
-              + (summary["most_robust"] or f"none: a tie at {falls[0]:.2f}"))
+        print("most robust (lowest fall probability over the perturbed grounds, then the longest time to fall): "
+              + (summary["most_robust"] or f"none: a tie at fall probability {falls[0]:.2f}"))
         for name, p in summary["picks"].items():
             print(f"{name}: {p['ctl']} (from {p['run']}; GA fitness {p['ga_fitness']:.4f}, mean S on flat ground "
                   f"{p['S_flat']:.4f})")
-        print(f"wrote {args.out}/population.json, population.md, population.png, stable.ctl, unstable.ctl")
+        print(f"wrote {args.out}/population.json, population.md, population.png, population-time.png, stable.ctl, "
+              "unstable.ctl")
     return 0

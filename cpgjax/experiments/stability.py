@@ -79,6 +79,13 @@ class StabilityResult:
             out.setdefault(label, []).append(k)
         return list(out.items())
 
+    def fall_time(self) -> np.ndarray:
+        """Time to fall [C, K] in s: the first log sample with S(theta) below the fall threshold (or not a
+        number: diverged), the episode's length for a robot that stays up."""
+        below = ~(self.S >= fall_threshold(self.config.get("delta", DEFAULT_DELTA)))
+        end = float(self.t[-1]) if len(self.t) else 0.0
+        return np.where(below.any(-1), self.t[np.argmax(below, -1)] if len(self.t) else 0.0, end)
+
     def summary(self) -> dict:
         """Per controller and condition (rough fields pooled): fall rate, mean S, projection stability."""
         rows = {}
@@ -88,6 +95,7 @@ class StabilityResult:
                 pm = self.proj_mean[i, ks]
                 rows[name][label] = {
                     "fall_rate": float(np.mean(self.fell[i, ks])),
+                    "time_to_fall": float(np.mean(self.fall_time()[i, ks])),
                     "mean_S": float(np.mean(self.S_mean[i, ks])),
                     "proj_mean": float(np.nanmean(pm)) if np.isfinite(pm).any() else None,
                     "proj_undefined": float(np.mean(self.proj_undefined[i, ks])),
@@ -182,8 +190,8 @@ def choose_stable_unstable(fitness: np.ndarray, S_mean_flat: np.ndarray, fell_an
 
     The thesis showed a "highly stable" and a "much lower vestibular stability" controller.  Among the
     walkers (fitness > 0), the stable one has the highest mean S(theta) on flat ground among those that
-    never fell under any perturbation (if none: the highest S overall); the unstable one has the lowest
-    mean S(theta) on flat ground among those that do not fall on flat ground.
+    never fell under any perturbation (if none: among all walkers); the unstable one has the lowest
+    mean S(theta) on flat ground among the other walkers.
     """
     ok = np.isfinite(fitness) & (fitness > 0)
     idx = np.nonzero(ok)[0] if ok.any() else np.arange(len(fitness))
@@ -208,17 +216,37 @@ class PopulationStudy:
     controllers: int               # controllers scored per run
     config: dict = field(default_factory=dict)
     picks: dict = field(default_factory=dict)   # the thesis's pair (choose_stable_unstable): coeffs and scores
+    fall_time: list[np.ndarray] = field(default_factory=list)  # per cell [runs, groups]: mean time to fall, s
 
     def summary(self) -> dict:
+        def band(a, j):
+            return {"mean": float(a[:, j].mean()), "sd": float(a[:, j].std(ddof=1)) if a.shape[0] > 1 else 0.0}
+
         out = {}
-        for lab, cfg, f, s in zip(self.labels, self.configs, self.fall, self.S_mean, strict=True):
+        times = self.fall_time or [None] * len(self.labels)
+        for lab, cfg, f, s, tf in zip(self.labels, self.configs, self.fall, self.S_mean, times, strict=True):
             out[lab] = {"gamma": cfg.get("gamma"), "pocket": cfg.get("pocket"), "crossover": cfg.get("crossover"),
                         "runs": int(f.shape[0]),
-                        "fall": {g: {"mean": float(f[:, j].mean()), "sd": float(f[:, j].std(ddof=1)) if f.shape[0] > 1
-                                     else 0.0} for j, g in enumerate(self.groups)},
+                        "fall": {g: band(f, j) for j, g in enumerate(self.groups)},
                         "fall_perturbed": float(f[:, 1:].mean()),
                         "mean_S": {g: float(s[:, j].mean()) for j, g in enumerate(self.groups)}}
+            if tf is not None:
+                out[lab]["time_to_fall"] = {g: band(tf, j) for j, g in enumerate(self.groups)}
+                out[lab]["time_to_fall_perturbed"] = float(tf[:, 1:].mean())
         return out
+
+    def ranking(self) -> tuple[list[str], str | None]:
+        """GA settings from the most to the least robust, and the most robust one (None: a tie).
+
+        Robust = the lowest fall probability over the perturbed grounds; between equal ones, the longest
+        mean time to fall there (gaits that all fall within the episode are still told apart by when).
+        """
+        s = self.summary()
+        key = {lab: (round(s[lab]["fall_perturbed"], 9), -round(s[lab].get("time_to_fall_perturbed", 0.0), 9))
+               for lab in self.labels}
+        order = sorted(self.labels, key=lambda lab: key[lab])
+        best = order[0] if len(order) == 1 or key[order[0]] != key[order[1]] else None
+        return order, best
 
 
 def _model_of(run):
@@ -288,17 +316,20 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
     groups = res.groups()
     fell = res.fell.reshape(len(runs), n, -1)
     S = res.S_mean.reshape(len(runs), n, -1)
+    tf = res.fall_time().reshape(len(runs), n, -1)
     fall_g = np.stack([fell[:, :, ks].mean(axis=(1, 2)) for _, ks in groups], -1)      # [runs, groups]
     S_g = np.stack([S[:, :, ks].mean(axis=(1, 2)) for _, ks in groups], -1)
-    out_f, out_s, i = [], [], 0
+    tf_g = np.stack([tf[:, :, ks].mean(axis=(1, 2)) for _, ks in groups], -1)
+    out_f, out_s, out_t, i = [], [], [], 0
     for k in per_cell:
         out_f.append(fall_g[i:i + k])
         out_s.append(S_g[i:i + k])
+        out_t.append(tf_g[i:i + k])
         i += k
     stable, unstable = choose_stable_unstable(fitness, res.S_mean[:, 0], res.fell.any(axis=1))
     picks = {name: {"coeffs": coeffs[i], "ga_fitness": float(fitness[i]), "run": runs[i // n].path,
                     "S_flat": float(res.S_mean[i, 0]), "fell": {g: float(res.fell[i, ks].mean()) for g, ks in groups}}
              for name, i in (("stable", stable), ("unstable", unstable))}
     return PopulationStudy(labels=[c.label() for c in cells], configs=[c.config for c in cells],
-                           groups=[g for g, _ in groups], fall=out_f, S_mean=out_s, controllers=n,
+                           groups=[g for g, _ in groups], fall=out_f, S_mean=out_s, fall_time=out_t, controllers=n,
                            config={**asdict(cfg), "which": which, "top": top, "runs": len(runs)}, picks=picks)

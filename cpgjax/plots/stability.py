@@ -70,24 +70,30 @@ def flat_panel(result, i: int, measure: str = "projection") -> Figure:
     return fig
 
 
-def fall_probability(study) -> Figure:
-    """The population study: fall probability vs perturbation size, per GA setting (mean ± sd over seeds)."""
+def fall_probability(study, what: str = "fall") -> Figure:
+    """The population study vs perturbation size (flat ground at 0), per GA setting (mean ± sd over seeds):
+    the fall probability (``what="fall"``) or the mean time to fall in s (``"time_to_fall"``)."""
+    data = study.fall if what == "fall" else study.fall_time
+    top = 1.0 if what == "fall" else float(max(np.max(a) for a in data)) if data else 1.0
     fig, axes = _figure(2, (5.0, 3.8))
+    flat = [j for j, g in enumerate(study.groups) if g == "flat"]
     for kind, ax in zip(("bump", "rough"), axes, strict=True):
         cols = [j for j, g in enumerate(study.groups) if g.startswith(kind)]
         if not cols:
             ax.set_visible(False)
             continue
-        x = [float(study.groups[j].split()[1]) for j in cols]
-        for n, (lab, f) in enumerate(zip(study.labels, study.fall, strict=True)):
+        x = [0.0] * len(flat) + [float(study.groups[j].split()[1]) for j in cols]
+        cols = flat + cols
+        for n, (lab, f) in enumerate(zip(study.labels, data, strict=True)):
             m = f[:, cols].mean(0)
             sd = f[:, cols].std(0, ddof=1) if f.shape[0] > 1 else np.zeros_like(m)
             ax.plot(x, m, "o-", color=f"C{n % 10}", lw=1.2, ms=3, label=lab)
-            ax.fill_between(x, np.clip(m - sd, 0, 1), np.clip(m + sd, 0, 1), color=f"C{n % 10}", alpha=0.12)
-        ax.set_xlabel("bump height [cm]" if kind == "bump" else "roughness range [cm]")
-        ax.set_ylim(-0.02, 1.02)
-    axes[0].set_ylabel("fall probability")
+            ax.fill_between(x, np.clip(m - sd, 0, top), np.clip(m + sd, 0, top), color=f"C{n % 10}", alpha=0.12)
+        ax.set_xlabel("bump height [cm] (0: flat)" if kind == "bump" else "roughness range [cm] (0: flat)")
+        ax.set_ylim(-0.02 * top, 1.02 * top)
+    axes[0].set_ylabel("fall probability" if what == "fall" else "mean time to fall [s]")
     (axes[0] if axes[0].get_visible() else axes[1]).legend(fontsize=7)
-    fig.suptitle(f"Fall probability of each GA setting's controllers ({study.controllers} per run; "
+    name = "Fall probability" if what == "fall" else "Mean time to fall"
+    fig.suptitle(f"{name} of each GA setting's controllers ({study.controllers} per run; "
                  "mean ± sd over seeds)", fontsize=10)
     return fig

@@ -52,7 +52,8 @@ def test_stability_notebook_tiny(tmp_path):
             "--sweep-dir", str(tmp_path / "sweep"), "--fig-dir", str(tmp_path / "figures"), "--out", str(executed)]
     assert cli.main(args) == 0
     figs = sorted(os.listdir(tmp_path / "figures"))
-    want = [f"fig-6-{i}.png" for i in range(13, 22)] + ["population.png", "claims.md", "population.md"]
+    want = [f"fig-6-{i}.png" for i in range(13, 22)] + ["population.png", "population-time.png", "claims.md",
+                                                         "population.md"]
     assert figs == sorted(want)
     claims = (tmp_path / "figures" / "claims.md").read_text()
     assert "hexapod" in claims and claims.count("**") >= 16        # a verdict in every row

@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from cpgjax import cli
-from cpgjax.experiments.stability import StabilityConfig, choose_stable_unstable, perturbation_experiment
+from cpgjax.experiments.stability import (
+    PopulationStudy,
+    StabilityConfig,
+    StabilityResult,
+    choose_stable_unstable,
+    fall_threshold,
+    perturbation_experiment,
+)
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.results import Row, RunWriter, create_run
 from cpgjax.io.wl import load_model
@@ -59,6 +66,32 @@ def test_choose_stable_unstable():
     assert choose_stable_unstable(fit, S, fell) == (0, 3)   # walkers only; the stable one never fell
 
 
+def test_time_to_fall_is_the_first_sample_below_the_threshold():
+    thr = fall_threshold()
+    t = np.arange(1, 6) * 0.5
+    S = np.ones((2, 2, 5))
+    S[0, 1, 3:] = thr - 0.01          # falls at the 4th sample, t = 2 s
+    S[1, 0, 1] = np.nan               # diverged at t = 1 s
+    r = StabilityResult(names=["a", "b"], conditions=[], t=t, S=S, proj=S, fell=np.zeros((2, 2), bool),
+                        distance=np.zeros((2, 2)), S_mean=np.ones((2, 2)), proj_mean=np.ones((2, 2)),
+                        proj_undefined=np.zeros((2, 2)), flat_distance=np.zeros(2), config={"delta": 8.0})
+    np.testing.assert_array_equal(r.fall_time(), [[2.5, 2.0], [1.0, 2.5]])
+
+
+def test_settings_that_all_fall_are_ranked_by_their_time_to_fall():
+    one = np.ones((2, 2))
+    study = PopulationStudy(labels=["early", "late", "same"], configs=[{}, {}, {}], groups=["flat", "bump 1 cm"],
+                            fall=[one, one, one], S_mean=[one, one, one], controllers=1,
+                            fall_time=[one * 2.0, one * 7.0, one * 2.0])
+    assert study.ranking() == (["late", "early", "same"], "late")
+    tie = PopulationStudy(labels=["a", "b"], configs=[{}, {}], groups=["flat", "bump 1 cm"], fall=[one, one],
+                          S_mean=[one, one], controllers=1, fall_time=[one, one])
+    assert tie.ranking()[1] is None
+    fewer = PopulationStudy(labels=["a", "b"], configs=[{}, {}], groups=["flat", "bump 1 cm"],
+                            fall=[one, one * 0.5], S_mean=[one, one], controllers=1, fall_time=[one * 9, one])
+    assert fewer.ranking() == (["b", "a"], "b")          # fewer falls first, whatever the time
+
+
 def _fake_run(path, genomes, gamma, seed):
     text = open(QUAD).read()
     meta = {"model_path": QUAD, "model_text": text, "time": 0.5, "n_dof": 8, "harmonics": 2,
@@ -88,8 +121,11 @@ def test_population_study_of_a_sweep_folder(tmp_path, capsys):
     assert set(s["settings"]) == {"γ=0", "γ=1"}
     for v in s["settings"].values():
         assert v["runs"] == 2 and 0 <= v["fall"]["bump 3 cm"]["mean"] <= 1
-    assert sorted(os.listdir(out)) == ["population.json", "population.md", "population.png", "stable.ctl",
-                                       "unstable.ctl"]
+    assert sorted(os.listdir(out)) == ["population-time.png", "population.json", "population.md", "population.png",
+                                       "stable.ctl", "unstable.ctl"]
+    for v in s["settings"].values():
+        assert 0 < v["time_to_fall"]["flat"]["mean"] <= 0.5 + 1e-9      # the fake runs' 0.5 s episodes
+    assert s["ranking"][0] == s["most_robust"] or s["most_robust"] is None
     assert s["picks"]["stable"]["ga_fitness"] > 0
 
 
