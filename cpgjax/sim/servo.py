@@ -2,8 +2,8 @@
 
 The real robot ran one LM628 PID chip per joint on 0.35 N m DC motors through 50:1
 gearboxes, hence the default saturation of 17.5 N m.  The CPG gives the target angle
-and its rate; the derivative acts on the error rate and is integrated implicitly
-(see `joints.implicit_damping`).
+and its rate; the derivative acts on the error rate and is backward Euler over the step
+(`servo_torques`; the PI torque is explicit), so the servo delivers its nominal kd.
 """
 
 from __future__ import annotations
