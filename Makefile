@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint bench thesis setup clean readme
+.PHONY: run test test-all lint bench thesis setup clean readme
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -29,6 +29,10 @@ lint: $(STAMP)
 
 test: $(STAMP) lint
 	$(BIN)/python -m pytest -q -m "not slow"
+
+# every test, the long checks marked slow included
+test-all: $(STAMP) lint
+	$(BIN)/python -m pytest -q
 
 # rewrite the README's command examples from a fresh run (tests/test_readme.py checks them)
 readme: $(STAMP)

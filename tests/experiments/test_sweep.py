@@ -47,16 +47,27 @@ def test_layout_and_manifest(quad_sweep):
     assert run.fitness.shape == (3, 6) and run.genomes.shape == (3, 6, 40)
 
 
+def _same_as_evolve(quad_sweep, tmp_path, pocket, xo, seed):
+    single = str(tmp_path / f"p{pocket}{xo}{seed}.h5")
+    assert cli.main(["evolve", WL, *QUAD, "--gamma", "0.1", "--pocket", str(pocket), xo,
+                     "--seed", str(seed), "--out", single, "--quiet"]) == 0
+    cell = f"ga_n6_mu0.2_g0.1_p{pocket}_x{'on' if xo == '--crossover' else 'off'}"
+    same_rows(read_run(os.path.join(quad_sweep, cell, f"s{seed}.h5")), read_run(single))
+
+
+def test_a_sweep_run_equals_the_run_made_alone_with_cpgjax_evolve(quad_sweep, tmp_path):
+    """Batching (4 GA settings x 2 seeds and the baselines in one program) changes no number: the run with
+    a pocket and cross-over, second seed (every setting and seed: the slow test below)."""
+    _same_as_evolve(quad_sweep, tmp_path, 2, "--crossover", 1)
+
+
+@pytest.mark.slow  # long; `make test-all` runs it
 def test_sweep_equals_runs_made_one_by_one_with_cpgjax_evolve(quad_sweep, tmp_path):
     """Batching (4 GA settings x 2 seeds and the baselines in one program) changes no number."""
     for pocket in (0, 2):
         for xo in ("--no-crossover", "--crossover"):
             for seed in (0, 1):
-                single = str(tmp_path / f"p{pocket}{xo}{seed}.h5")
-                assert cli.main(["evolve", WL, *QUAD, "--gamma", "0.1", "--pocket", str(pocket), xo,
-                                 "--seed", str(seed), "--out", single, "--quiet"]) == 0
-                cell = f"ga_n6_mu0.2_g0.1_p{pocket}_x{'on' if xo == '--crossover' else 'off'}"
-                same_rows(read_run(os.path.join(quad_sweep, cell, f"s{seed}.h5")), read_run(single))
+                _same_as_evolve(quad_sweep, tmp_path, pocket, xo, seed)
 
 
 def test_baselines_propose_as_cpgjax_search_and_score_their_genomes(quad_sweep, tmp_path):
@@ -173,6 +184,7 @@ def test_eval_chunk_pads_little():
         assert padded - per_dev < max(16 * (-(-per_dev // 256)), 16)
 
 
+@pytest.mark.slow  # long; `make test-all` runs it
 def test_sweep_killed_mid_run_resumes_to_the_uninterrupted_result(tmp_path):
     """SIGKILL a sweep subprocess while it runs (runs may stop at different generations); the same
     command continues every run, and the files equal those of a sweep that was never interrupted."""
@@ -247,6 +259,7 @@ def test_resume_with_another_episode_length_is_refused(tmp_path):
     assert open(specs[0].path, "rb").read() == before
 
 
+@pytest.mark.slow  # long; `make test-all` runs it
 def test_a_sweep_mixing_ga_and_evolution_strategies_equals_the_runs_made_one_by_one(tmp_path):
     """The GA (population 6) and two evolution strategies (population 8) in one program: every run holds bit
     for bit the rows of the same run made alone with `cpgjax evolve` / `cpgjax search`."""
