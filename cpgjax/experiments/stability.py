@@ -89,13 +89,14 @@ class StabilityResult:
     def summary(self) -> dict:
         """Per controller and condition (rough fields pooled): fall rate, mean S, projection stability."""
         rows = {}
+        tf = self.fall_time()
         for i, name in enumerate(self.names):
             rows[name] = {}
             for label, ks in self.groups():
                 pm = self.proj_mean[i, ks]
                 rows[name][label] = {
                     "fall_rate": float(np.mean(self.fell[i, ks])),
-                    "time_to_fall": float(np.mean(self.fall_time()[i, ks])),
+                    "time_to_fall": float(np.mean(tf[i, ks])),
                     "mean_S": float(np.mean(self.S_mean[i, ks])),
                     "proj_mean": float(np.nanmean(pm)) if np.isfinite(pm).any() else None,
                     "proj_undefined": float(np.mean(self.proj_undefined[i, ks])),

@@ -32,14 +32,20 @@ def accelerations(model, R, w, force, torque, mass_scale=None):
     return a * free, matvec(R, alpha_b) * free
 
 
+def torque_accelerations(model, R, torque, mass_scale=None):
+    """Angular accelerations [3, nb, B] from extra torques alone (no gyroscopic term)."""
+    free = (~model.fixed).astype(float)[:, None]
+    alpha_b = matvec(model.inv_inertia[:, :, :, None], matTvec(R, torque))
+    if mass_scale is not None:
+        alpha_b = alpha_b / mass_scale
+    return matvec(R, alpha_b) * free
+
+
 def force_accelerations(model, R, force, torque, mass_scale=None):
     """Accelerations [3, nb, B] from extra forces and torques alone (no gravity, no gyroscopic term)."""
     free = (~model.fixed).astype(float)[:, None]
     m = model.mass[:, None] if mass_scale is None else model.mass[:, None] * mass_scale
-    alpha_b = matvec(model.inv_inertia[:, :, :, None], matTvec(R, torque))
-    if mass_scale is not None:
-        alpha_b = alpha_b / mass_scale
-    return force / m * free, matvec(R, alpha_b) * free
+    return force / m * free, torque_accelerations(model, R, torque, mass_scale)
 
 
 def integrate(state, a, alpha, dt):

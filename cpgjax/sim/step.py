@@ -12,7 +12,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.bodies import accelerations, force_accelerations, integrate
+from cpgjax.sim.bodies import accelerations, force_accelerations, integrate, torque_accelerations
 from cpgjax.sim.contact import contact_body_ranges, contact_forces
 from cpgjax.sim.joints import joint_angles, limit_torques, pivot_spring_forces
 from cpgjax.sim.rotation import cross, dot, matvec, quat_to_mat
@@ -91,9 +91,7 @@ def servo_derivative(model, R, ctrl, joints, alpha, var=None):
     gain = None if var is None else var.gain
     extra = servo_torques(model, tau_pi, rate_pred, ctrl[1], gain) - tau_pi
     tau = jnp.zeros_like(rate).at[cj].set(extra)
-    _, al = force_accelerations(model, R, jnp.zeros_like(alpha), sum_onto_bodies(model, None, tau * axis),
-                                None if var is None else var.mass)
-    return al
+    return torque_accelerations(model, R, sum_onto_bodies(model, None, tau * axis), None if var is None else var.mass)
 
 
 def step(model, state, ctrl, var=None):
