@@ -52,7 +52,9 @@ def register(subparsers: Any) -> None:
                        help="robust evaluation ranges, e.g. replicas=8,roughness=0.005 (defaults: replicas 4, "
                             "lift 0.005 m, tilt 0.02 rad, roughness 0 m (e.g. 0.003: 1.8x slower), friction/mass/gain "
                             "10/5/10 %%, "
-                            "jitter 1e-3, fall_ends on)")
+                            "jitter 1e-3, fall_ends on, fall_zero off: on, a fall forfeits the episode; "
+                            "fall_survival off: on, a fall scales the episode's score by the share of it "
+                            "before the fall)")
         p.add_argument("--seed", type=o.seed, default=None, help=f"random seed (default {d.seed})")
         p.add_argument("--chunk", type=o.count, default=None,
                        help=f"generations per jitted chunk; a kill loses at most the chunk in flight "

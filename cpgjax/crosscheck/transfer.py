@@ -39,7 +39,7 @@ class Replay:
     """One run's best controller, replayed in both engines."""
 
     run: str
-    evaluation: str          # "thesis" | "robust"
+    evaluation: str          # "thesis" | "robust" | "robust, a fall forfeits"
     cell: str
     seed: int
     fitness_in_run: float    # the score the GA recorded for it
@@ -62,6 +62,8 @@ class Replay:
 def _setting(run) -> tuple[str, float | None, str | None]:
     cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
     evaluation = str(run.meta.get("evaluation", "thesis"))
+    if evaluation == "robust" and (run.meta.get("perturbations") or {}).get("fall_zero"):
+        evaluation = "robust, a fall forfeits"     # --perturb fall_zero=on: a mode of its own in the tables
     return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
 
 

@@ -21,6 +21,13 @@ episodes, each with fresh perturbations drawn per robot from its own key:
 * the controller: every gene moved by ``U(-sqrt(3) jitter, sqrt(3) jitter)`` (standard deviation
   ``jitter``; clipped to the search box).
 
+A fall (the body tilted past 60 degrees) ends the episode's score (``fall_ends``, on by default), or
+forfeits it (``fall_zero``: the episode scores 0, so the mean over the R episodes is the controller's
+speed times the share of episodes it stays up in: a gait that lunges and falls cannot beat one that walks),
+or scales it by the share of the episode before the fall (``fall_survival``: the same pressure, but a
+population in which every controller falls -- the GA's first generations on the quadruped -- still
+tells the longer-lived ones apart, where under ``fall_zero`` they all score 0).
+
 Each robot's draws depend only on its key, so a result does not depend on the batch it is in.
 """
 
@@ -55,6 +62,8 @@ class Perturbations:
     jitter: float = 1e-3       # rad: sd of the gene jitter
     bristle: float = 0.0       # decades: the friction bristle's k scaled by 10^U(0, bristle)
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
+    fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
+    fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
 
     def __post_init__(self) -> None:
         if self.replicas < 1:
@@ -66,6 +75,8 @@ class Perturbations:
         for f in ("friction", "mass", "gain"):
             if getattr(self, f) >= 1:
                 raise ValueError(f"perturbation {f} is relative and must be < 1, got {getattr(self, f)}")
+        if self.fall_zero and self.fall_survival:
+            raise ValueError("fall_zero and fall_survival exclude each other: a fall forfeits the episode or scales it")
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)

@@ -92,7 +92,8 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     ``var``: a per-robot :class:`~cpgjax.sim.variation.Variation` (initial pose, masses, friction, gains,
     terrain shift); ``None`` is the nominal robot.  ``fall_ends``: a robot's fitness stops accumulating
     once its body has tilted past ``FALL_TILT`` (the episode's fitness ends at the fall; it is still
-    divided by the whole episode's length).
+    divided by the whole episode's length); ``down`` says which robots fell so (always False without it)
+    and ``up`` the share of the episode before the fall (1 without one).
     With ``record=True`` also ``traj``: x, q [S, ., nb, B], angle, target [S, n, B], t [S], with
     S = samples + 1: t = 0, 1/LogRate, ..., T.
     With ``stability_series=True`` (thesis Ch. 6.4, :func:`probe`) also, computed in the scan at every
@@ -133,9 +134,11 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             zg, _ = height_and_normal(model.terrain, p[0, model.ct_pt] + sx, p[1, model.ct_pt] + sy)
             depth = (zg - p[2, model.ct_pt]).max(0, initial=0.0) + zero
         cosu = _up_cos(model, s_new.q)
+        down = acc["down"] | (fall_ends & (cosu < math.cos(FALL_TILT)))
         acc = {
             "fit": acc["fit"] + jnp.where(ok & ~acc["down"], fit, 0.0),
-            "down": acc["down"] | (fall_ends & (cosu < math.cos(FALL_TILT))),
+            "up": acc["up"] + jnp.where(down, 0.0, 1.0),     # the log samples at which it is still up
+            "down": down,
             "tilt": acc["tilt"] + jnp.arccos(jnp.clip(cosu, -1.0, 1.0)),
             "height": acc["height"] + s_new.x[2, model.track],
             "fallen": acc["fallen"] | (cosu < 0),
@@ -161,7 +164,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
 
     z = jnp.zeros((B,), coeffs.dtype)
     acc0 = {"fit": z, "tilt": z, "height": z, "fallen": z < 0, "diverged": z < 0, "pivot_err": z, "depth": z,
-            "down": z < 0}
+            "down": z < 0, "up": z}
     if stability_series:
         acc0.update(S=z, proj=z, proj_n=jnp.zeros((B,), jnp.int32), proj_min=z + jnp.inf)
     (s_end, acc), traj = jax.lax.scan(outer_body, (s0, acc0), None, length=outer)
@@ -176,6 +179,8 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         "tilt": acc["tilt"] / outer,
         "height": acc["height"] / outer,
         "fallen": acc["fallen"],
+        "down": acc["down"],
+        "up": acc["up"] / outer,
         "diverged": acc["diverged"],
         "pivot_err": acc["pivot_err"],
         "depth": acc["depth"],

@@ -142,7 +142,11 @@ def _robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float,
         # in different programs (cf. optim.algorithm.generation_step)
         var, g = jax.lax.optimization_barrier((var, g))
         r = evaluate(model, g.reshape(-1, n_ctrl, n_coeff), time=T, delta=delta, chunk=chunk, var=var,
-                     fall_ends=p.fall_ends)
+                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival)
+        if p.fall_zero:   # a fall forfeits the episode
+            r = dict(r, fitness=jnp.where(r["down"], 0.0, r["fitness"]))
+        elif p.fall_survival:   # a fall scales the episode's score by the share of it the robot stayed up
+            r = dict(r, fitness=r["fitness"] * r["up"])
         out = {}
         for key in METRICS:
             v = r[key].reshape(n, R)

@@ -47,3 +47,13 @@ def test_each_run_is_replayed_on_its_stored_model_and_settings(runs):
 def test_bad_inputs_are_named(tmp_path, capsys):
     assert cli.main(["transfer", str(tmp_path)]) == 2
     assert "no run files" in capsys.readouterr().err
+
+
+def test_runs_whose_falls_forfeit_are_a_mode_of_their_own():
+    class Run:
+        def __init__(self, meta):
+            self.meta = meta
+    robust = {"evaluation": "robust", "time": 10.0, "perturbations": {"fall_zero": False}}
+    assert transfer._setting(Run(robust))[0] == "robust"
+    assert transfer._setting(Run(robust | {"perturbations": {"fall_zero": True}}))[0] == "robust, a fall forfeits"
+    assert transfer._setting(Run({"time": 10.0}))[0] == "thesis"

@@ -81,3 +81,25 @@ def test_perturbation_ranges_are_checked():
         make_problem("analytic:sphere:10", evaluation="robust")
     with pytest.raises(ValueError, match="robust evaluation only"):
         make_problem(WL, perturb={"replicas": 2})
+
+
+def test_a_fall_forfeits_the_episode_with_fall_zero_and_scales_it_with_fall_survival(trot):
+    """fall_zero: an episode whose body tilts past 60 degrees scores 0; fall_survival: its score times the share
+    of the episode before the fall; the episodes without a fall score as with fall_ends alone."""
+    keys = eval_keys(jax.random.key(5), 0, 8)
+    G = jnp.asarray(np.repeat(trot[None], 8, 0))
+    scores = {}
+    for mode in ("ends", "fall_zero", "fall_survival"):   # started rolled or pitched by up to 80 degrees
+        extra = {} if mode == "ends" else {mode: True}
+        p = make_problem(WL, time=0.2, evaluation="robust", perturb={"replicas": 1, "tilt": 1.4} | extra)
+        assert all(p.meta["perturbations"][k] is (k == mode) for k in ("fall_zero", "fall_survival"))
+        scores[mode] = np.asarray(jax.jit(p.evaluate)(G, keys)["fitness"], float)
+    fell = scores["fall_zero"] == 0
+    assert 0 < fell.sum() < 8
+    assert np.all(scores["ends"][fell] != 0)
+    for mode in ("fall_zero", "fall_survival"):
+        np.testing.assert_array_equal(scores[mode][~fell], scores["ends"][~fell])
+    share = scores["fall_survival"][fell] / scores["ends"][fell]   # log samples still up, of the 4 in 0.2 s
+    assert np.all((share >= 0) & (share < 1)) and np.allclose(share * 4, np.round(share * 4))
+    with pytest.raises(ValueError, match="exclude each other"):
+        Perturbations(fall_zero=True, fall_survival=True)
