@@ -39,7 +39,7 @@ class Replay:
     """One run's best controller, replayed in both engines."""
 
     run: str
-    evaluation: str          # "thesis" | "robust" | "robust, a fall forfeits"
+    evaluation: str          # "thesis" | "robust" | "robust, a fall forfeits" | "robust, a fall scales the score"
     cell: str
     seed: int
     fitness_in_run: float    # the score the GA recorded for it
@@ -62,8 +62,11 @@ class Replay:
 def _setting(run) -> tuple[str, float | None, str | None]:
     cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
     evaluation = str(run.meta.get("evaluation", "thesis"))
-    if evaluation == "robust" and (run.meta.get("perturbations") or {}).get("fall_zero"):
-        evaluation = "robust, a fall forfeits"     # --perturb fall_zero=on: a mode of its own in the tables
+    falls = run.meta.get("perturbations") or {}
+    if evaluation == "robust" and falls.get("fall_zero"):          # modes of their own in the tables
+        evaluation = "robust, a fall forfeits"
+    elif evaluation == "robust" and falls.get("fall_survival"):
+        evaluation = "robust, a fall scales the score"
     return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
 
 

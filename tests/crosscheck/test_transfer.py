@@ -56,4 +56,6 @@ def test_runs_whose_falls_forfeit_are_a_mode_of_their_own():
     robust = {"evaluation": "robust", "time": 10.0, "perturbations": {"fall_zero": False}}
     assert transfer._setting(Run(robust))[0] == "robust"
     assert transfer._setting(Run(robust | {"perturbations": {"fall_zero": True}}))[0] == "robust, a fall forfeits"
+    survival = robust | {"perturbations": {"fall_survival": True}}
+    assert transfer._setting(Run(survival))[0] == "robust, a fall scales the score"
     assert transfer._setting(Run({"time": 10.0}))[0] == "thesis"
