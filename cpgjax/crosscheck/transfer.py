@@ -173,12 +173,21 @@ def plot(replays: list[Replay], out: str) -> None:
     hi = max([0.05] + [max(r.ours["fitness"], r.mujoco["fitness"]) for r in replays]) * 1.1
     ax.plot([0, hi], [0, hi], "k:", lw=1, label="same in both")
     ax.plot([0, hi], [0, MIN_RATIO * hi], color="0.6", lw=1, label=f"{MIN_RATIO:.0%} of ours")
-    for mode, color in (("thesis", "tab:red"), ("robust", "tab:blue")):
+    colors = {"thesis": "tab:red", "robust": "tab:blue", "robust, a fall forfeits": "tab:green",
+              "robust, a fall scales the score": "tab:purple"}
+    for mode in sorted({r.evaluation for r in replays}, key=lambda m: (m not in colors, m)):
         rs = [r for r in replays if r.evaluation == mode]
-        if rs:
-            ax.errorbar([r.ours["fitness"] for r in rs], [r.mujoco_jit["mean"] for r in rs],
-                        yerr=[r.mujoco_jit["sd"] for r in rs], fmt="o", color=color, alpha=0.8,
-                        label=f"{mode} evaluation: best of each run (MuJoCo: mean ± sd of jittered replays)")
+        fell = [r.mujoco_jit["falls"] > MAX_FALLS for r in rs]
+        ax.errorbar([r.ours["fitness"] for r in rs], [r.mujoco_jit["mean"] for r in rs],
+                    yerr=[r.mujoco_jit["sd"] for r in rs], fmt="none", ecolor=colors.get(mode, "0.3"), alpha=0.6)
+        for hollow in (False, True):
+            pts = [r for r, f in zip(rs, fell, strict=True) if f == hollow]
+            if pts:
+                ax.plot([r.ours["fitness"] for r in pts], [r.mujoco_jit["mean"] for r in pts], "o",
+                        color=colors.get(mode, "0.3"), mfc="none" if hollow else colors.get(mode, "0.3"),
+                        label=f"{mode}: {'falls' if hollow else 'stays up'} in MuJoCo")
+    ax.text(0.98, 0.02, f"best of each run; MuJoCo: mean ± sd of jittered replays;\nhollow: > {MAX_FALLS} "
+            "of them fall", transform=ax.transAxes, ha="right", va="bottom", fontsize=7)
     ax.set_xlabel("fitness in the penalty simulator (eq. 4.6)")
     ax.set_ylabel("fitness in MuJoCo C")
     ax.set_title("Do evolved gaits carry over? (MuJoCo as the robot)")
