@@ -148,12 +148,11 @@ def table(replays: list[Replay], replay_count: int) -> str:
     lines += ["", "| evaluation | runs | mean fitness here | mean fitness MuJoCo | ratio (median) | "
               f"MuJoCo falls of {n} (mean) | falls here of {n} (mean) | runs that carry over |",
               "|---|---:|---:|---:|---:|---:|---:|---:|"]
-    for mode in ("thesis", "robust"):
-        if mode in s:
-            m = s[mode]
-            lines.append(f"| {mode} | {m['runs']} | {m['ours_fitness']:.3f} | {m['mujoco_fitness']:.3f} | "
-                         f"{m['ratio_median']:.2f} | {m['mujoco_falls_mean']:.1f} | {m['ours_falls_mean']:.1f} | "
-                         f"{m['carry_over']} of {m['runs']} |")
+    for mode in sorted((k for k, v in s.items() if isinstance(v, dict)), key=lambda k: (k != "thesis", k)):
+        m = s[mode]
+        lines.append(f"| {mode} | {m['runs']} | {m['ours_fitness']:.3f} | {m['mujoco_fitness']:.3f} | "
+                     f"{m['ratio_median']:.2f} | {m['mujoco_falls_mean']:.1f} | {m['ours_falls_mean']:.1f} | "
+                     f"{m['carry_over']} of {m['runs']} |")
     if "spearman_fitness" in s:
         lines += ["", f"Spearman rank correlation of fitness, here vs MuJoCo, over these runs' bests: "
                       f"{s['spearman_fitness']:+.2f}"]

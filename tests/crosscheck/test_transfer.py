@@ -59,3 +59,18 @@ def test_runs_whose_falls_forfeit_are_a_mode_of_their_own():
     survival = robust | {"perturbations": {"fall_survival": True}}
     assert transfer._setting(Run(survival))[0] == "robust, a fall scales the score"
     assert transfer._setting(Run({"time": 10.0}))[0] == "thesis"
+
+
+def test_every_evaluation_mode_has_its_summary_row():
+    def replay(mode, seed, ours, theirs, falls):
+        jit = {"mean": theirs, "sd": 0.0, "falls": falls, "speed": theirs}
+        return transfer.Replay(run=f"r{seed}.h5", evaluation=mode, cell="c", seed=seed, fitness_in_run=ours,
+                               ours={"fitness": ours, "speed": ours, "distance": 0.0, "fallen": False},
+                               mujoco={"fitness": theirs, "speed": theirs, "distance": 0.0, "fallen": falls > 16},
+                               ours_jit=jit | {"mean": ours, "falls": 0}, mujoco_jit=jit)
+    rs = [replay("thesis", 0, 0.2, 0.05, 30), replay("robust, a fall forfeits", 1, 0.2, 0.18, 1),
+          replay("robust, a fall forfeits", 2, 0.1, 0.03, 0)]
+    text = transfer.table(rs, 32)
+    assert "| thesis | 1 | 0.200 | 0.050 | 0.25 | 30.0 | 0.0 | 0 of 1 |" in text
+    assert "| robust, a fall forfeits | 2 | 0.150 | 0.105 | 0.60 | 0.5 | 0.0 | 1 of 2 |" in text
+    assert text.index("| thesis | 1") < text.index("| robust, a fall forfeits | 2")
