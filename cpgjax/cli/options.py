@@ -132,9 +132,9 @@ def perturbations(text: str) -> dict:
         if not sep or key not in fields:
             raise argparse.ArgumentTypeError(f"expected KEY=VALUE with KEY in {', '.join(fields)}, got {item!r}")
         try:
-            flag = key in ("fall_ends", "fall_zero", "fall_survival")
-            out[key] = (value.strip().lower() in ("1", "on", "true", "yes") if flag
-                        else int(value) if key == "replicas" else float(value))
+            kind = fields[key]    # the annotation, a string under `from __future__ import annotations`
+            out[key] = (value.strip().lower() in ("1", "on", "true", "yes") if kind in (bool, "bool")
+                        else int(value) if kind in (int, "int") else float(value))
         except ValueError:
             raise argparse.ArgumentTypeError(f"{key}: expected a number, got {value!r}") from None
     try:

@@ -32,6 +32,10 @@ from cpgjax.sim.model import build_model
 # scores here, and falls in at most 2 of 32 jittered MuJoCo replays.
 MIN_RATIO = 0.7
 MAX_FALLS = 2
+# evaluation modes, as the tables name them: the run's --evaluation, the robust one split by its fall rule
+FORFEITS = "robust, a fall forfeits"          # --perturb fall_zero=on
+SCALES = "robust, a fall scales the score"     # --perturb fall_survival=on
+MODES = ("thesis", "robust", FORFEITS, SCALES)
 
 
 @dataclass
@@ -39,7 +43,7 @@ class Replay:
     """One run's best controller, replayed in both engines."""
 
     run: str
-    evaluation: str          # "thesis" | "robust" | "robust, a fall forfeits" | "robust, a fall scales the score"
+    evaluation: str          # one of MODES
     cell: str
     seed: int
     fitness_in_run: float    # the score the GA recorded for it
@@ -64,9 +68,9 @@ def _setting(run) -> tuple[str, float | None, str | None]:
     evaluation = str(run.meta.get("evaluation", "thesis"))
     falls = run.meta.get("perturbations") or {}
     if evaluation == "robust" and falls.get("fall_zero"):          # modes of their own in the tables
-        evaluation = "robust, a fall forfeits"
+        evaluation = FORFEITS
     elif evaluation == "robust" and falls.get("fall_survival"):
-        evaluation = "robust, a fall scales the score"
+        evaluation = SCALES
     return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
 
 
@@ -172,8 +176,7 @@ def plot(replays: list[Replay], out: str) -> None:
     hi = max([0.05] + [max(r.ours["fitness"], r.mujoco["fitness"]) for r in replays]) * 1.1
     ax.plot([0, hi], [0, hi], "k:", lw=1, label="same in both")
     ax.plot([0, hi], [0, MIN_RATIO * hi], color="0.6", lw=1, label=f"{MIN_RATIO:.0%} of ours")
-    colors = {"thesis": "tab:red", "robust": "tab:blue", "robust, a fall forfeits": "tab:green",
-              "robust, a fall scales the score": "tab:purple"}
+    colors = dict(zip(MODES, ("tab:red", "tab:blue", "tab:green", "tab:purple"), strict=True))
     for mode in sorted({r.evaluation for r in replays}, key=lambda m: (m not in colors, m)):
         rs = [r for r in replays if r.evaluation == mode]
         fell = [r.mujoco_jit["falls"] > MAX_FALLS for r in rs]

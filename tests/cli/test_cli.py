@@ -1,6 +1,7 @@
 """The command line (cpgjax/cli.py): simulate, logs and bad input."""
 
 import numpy as np
+import pytest
 
 from cpgjax.cli import main
 from cpgjax.io.logs import read_log
@@ -52,3 +53,17 @@ def test_wrong_number_of_dofs_in_ctl(tmp_path, capsys):
 def test_missing_file_is_a_clear_error(capsys):
     assert main(["simulate", "models/nope.wl"]) == 2
     assert "nope.wl" in capsys.readouterr().err
+
+
+def test_perturb_values_are_read_by_the_type_of_their_field():
+    import argparse
+
+    from cpgjax.cli.options import perturbations
+
+    got = perturbations("replicas=3, fall_survival=on, fall-ends=off, jitter=1e-4")
+    assert got == {"replicas": 3, "fall_survival": True, "fall_ends": False, "jitter": 1e-4}
+    assert type(got["replicas"]) is int and type(got["jitter"]) is float
+    for bad, why in (("replicas=2.5", "replicas: expected a number"), ("mass=2", "must be < 1"),
+                     ("fall_zero=on,fall_survival=on", "exclude each other"), ("wind=3", "KEY in")):
+        with pytest.raises(argparse.ArgumentTypeError, match=why):
+            perturbations(bad)
