@@ -152,7 +152,8 @@ def table(replays: list[Replay], replay_count: int) -> str:
     lines += ["", "| evaluation | runs | mean fitness here | mean fitness MuJoCo | ratio (median) | "
               f"MuJoCo falls of {n} (mean) | falls here of {n} (mean) | runs that carry over |",
               "|---|---:|---:|---:|---:|---:|---:|---:|"]
-    for mode in sorted((k for k, v in s.items() if isinstance(v, dict)), key=lambda k: (k != "thesis", k)):
+    modes = (k for k, v in s.items() if isinstance(v, dict))
+    for mode in sorted(modes, key=lambda m: (MODES.index(m) if m in MODES else 9, m)):
         m = s[mode]
         lines.append(f"| {mode} | {m['runs']} | {m['ours_fitness']:.3f} | {m['mujoco_fitness']:.3f} | "
                      f"{m['ratio_median']:.2f} | {m['mujoco_falls_mean']:.1f} | {m['ours_falls_mean']:.1f} | "
@@ -177,7 +178,7 @@ def plot(replays: list[Replay], out: str) -> None:
     ax.plot([0, hi], [0, hi], "k:", lw=1, label="same in both")
     ax.plot([0, hi], [0, MIN_RATIO * hi], color="0.6", lw=1, label=f"{MIN_RATIO:.0%} of ours")
     colors = dict(zip(MODES, ("tab:red", "tab:blue", "tab:green", "tab:purple"), strict=True))
-    for mode in sorted({r.evaluation for r in replays}, key=lambda m: (m not in colors, m)):
+    for mode in sorted({r.evaluation for r in replays}, key=lambda m: (MODES.index(m) if m in MODES else 9, m)):
         rs = [r for r in replays if r.evaluation == mode]
         fell = [r.mujoco_jit["falls"] > MAX_FALLS for r in rs]
         ax.errorbar([r.ours["fitness"] for r in rs], [r.mujoco_jit["mean"] for r in rs],
