@@ -30,6 +30,8 @@ def register(subparsers: Any) -> None:
     c.add_argument("--terrain", type=o.terrain, help="terrain (default: the file's)")
     c.add_argument("--show", type=o.count0, default=0, help="which controller to plot (index, default 0)")
     c.add_argument("--no-mjx", action="store_true", help="skip MJX (slow to compile)")
+    c.add_argument("--no-ceiling", action="store_true",
+                   help="skip MuJoCo C at half its step (the rank correlation MuJoCo has with itself: the ceiling)")
     c.add_argument("--seed", type=o.seed, default=0, help="random seed (default 0)")
     c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
     c.set_defaults(func=cmd_crosscheck)
@@ -81,8 +83,8 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     if args.n:
         coeffs, labels = coeffs[: args.n], labels[: args.n]
     T = args.time or model.time_max
-    rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, show=args.show,
-                                   out_dir=args.out)
+    rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, ceiling=not args.no_ceiling,
+                                   show=args.show, out_dir=args.out)
     engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
     print(table(rows, summary, engines))
     if args.out:

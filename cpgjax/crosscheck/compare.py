@@ -13,6 +13,7 @@ import os
 import numpy as np
 
 from cpgjax.crosscheck.engines import joint_angles, mjx_run, mujoco_run, spearman
+from cpgjax.crosscheck.mjcf import MJ_TIMESTEP
 
 ENGINES = ("penalty", "mujoco", "mjx")
 
@@ -56,8 +57,13 @@ def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_pertu
 
 
 def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mjx: bool = True,
-                   show: int = 0, out_dir: str | None = None):
-    """Run every engine; returns (rows, summary) and writes table + plots into out_dir."""
+                   ceiling: bool = True, show: int = 0, out_dir: str | None = None):
+    """Run every engine; returns (rows, summary) and writes table + plots into out_dir.
+
+    With ``ceiling``, MuJoCo C also runs every controller at half its step: the rank correlation
+    of MuJoCo with itself (``rho_mujoco_half``) is what discretisation alone costs on this set of
+    controllers, the ceiling against which the other engines' agreement with MuJoCo is read.
+    """
     from cpgjax.episode.batch import simulate
 
     res = {}
@@ -82,6 +88,10 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
         if a in res and b in res:
             summary[f"rho_{a}_{b}"] = spearman(res[a]["fitness"], res[b]["fitness"])
             summary[f"rho_dist_{a}_{b}"] = spearman(res[a]["distance"], res[b]["distance"])
+    if ceiling:
+        half = mujoco_run(model, coeffs, time=time, delta=delta, timestep=MJ_TIMESTEP / 2)[0]
+        summary["rho_mujoco_half"] = spearman(res["mujoco"]["fitness"], half["fitness"])
+        summary["rho_dist_mujoco_half"] = spearman(res["mujoco"]["distance"], half["distance"])
     if out_dir:
         os.makedirs(out_dir, exist_ok=True)
         with open(os.path.join(out_dir, "crosscheck.md"), "w") as f:
@@ -104,7 +114,12 @@ def table(rows, summary, engines) -> str:
     for k, v in summary.items():
         if k.startswith("rho_") and not k.startswith("rho_dist"):
             a, b = k[4:].split("_")
-            lines.append(f"- fitness {a} vs {b}: {v:+.3f}  (distance: {summary['rho_dist_' + a + '_' + b]:+.3f})")
+            dist = summary["rho_dist_" + a + "_" + b]
+            if b == "half":
+                lines.append(f"- fitness mujoco vs mujoco at half its step ({MJ_TIMESTEP * 500:g} ms): {v:+.3f}  "
+                             f"(distance: {dist:+.3f}); the ceiling: what discretisation alone costs")
+            else:
+                lines.append(f"- fitness {a} vs {b}: {v:+.3f}  (distance: {dist:+.3f})")
     return "\n".join(lines)
 
 

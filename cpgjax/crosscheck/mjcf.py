@@ -11,8 +11,8 @@ How the penalty model maps onto MuJoCo's:
   range +-tau_max.  MuJoCo's is ``kp (u - q) - kv qdot``; ours has ``kd (q*' - qdot)``: feeding
   ``u = q* + (kd/kp) q*'`` makes them equal below saturation (see ``servo_ctrl``);
 - contact: a sphere of ``CONTACT_RADIUS`` at each contact vertex (MuJoCo collides geoms,
-  not points), the same friction coefficient, and ``solref = -A -B`` (MuJoCo's direct
-  stiffness/damping form) so the ground is about as stiff as eq. 3.7's;
+  not points), the same friction coefficient, and ``solref = -A/m_c -B/m_c`` in MuJoCo's direct
+  stiffness/damping form (see ``contact_solref``: MuJoCo's are per unit mass, eq. 3.7's are forces);
 - terrain: a plane when flat, else an ``hfield`` with the same heights;
 - looks: the objects' boxes/cylinders as visual geoms (no contact, no mass).
 """
@@ -33,6 +33,37 @@ def _f(v) -> str:
     return " ".join(f"{float(x):.9g}" for x in np.ravel(v))
 
 
+def contact_mass(model, tol: float = 1e-3) -> float:
+    """The mass each resting contact carries [kg]: the free bodies' mass over the contact vertices that
+    touch in the design pose (within ``tol`` of the lowest; the quadruped: 13.8 kg on 4 feet)."""
+    free = ~np.asarray(model.fixed, bool)
+    m = float(np.asarray(model.mass)[free].sum())
+    if m == 0.0 or len(model.ct_pt) == 0:
+        return 1.0
+    from cpgjax.sim.rotation import quat_to_mat_np
+
+    b = model.pt_body[model.ct_pt]
+    R = quat_to_mat_np(np.asarray(model.q0)[:, b])                  # [3, 3, nc]
+    z = np.asarray(model.x0)[2, b] + np.einsum("ij...,j...->i...", R, np.asarray(model.pt_local)[:, model.ct_pt])[2]
+    z = z[free[b]] if free[b].any() else z
+    return m / max(int(np.sum(z <= z.min() + tol)), 1)
+
+
+def contact_solref(model) -> str:
+    """MuJoCo's direct ``solref = "-k -b"`` for eq. 3.7's ground ``f = A d - B v``.
+
+    MuJoCo's direct stiffness and damping set a reference *acceleration* ``a_ref = -b v - k r`` of the
+    contact, whatever mass it carries; eq. 3.7's ``A`` and ``B`` are a force per metre and per metre per
+    second.  So ``k = A / m_c`` and ``b = B / m_c`` with ``m_c`` the mass a resting contact carries
+    (:func:`contact_mass`): then the robot standing on its contacts bounces on MuJoCo's ground at the
+    frequency and damping ratio it has on ours, ``sqrt(n A / m)`` and ``n B / (2 sqrt(n A m))``
+    (``tests/crosscheck/test_mjcf.py``).  Writing ``-A -B`` directly, as before, made the quadruped's ground
+    3.45x too stiff and too damped in MuJoCo.
+    """
+    mc = contact_mass(model)
+    return f"{-model.ground_A / mc:.6g} {-model.ground_B / mc:.6g}"
+
+
 def to_mjcf(model, *, timestep: float = MJ_TIMESTEP) -> str:
     """MJCF text of a cpgjax Model (built from a `.wl` Description)."""
     desc = model.description
@@ -43,7 +74,7 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP) -> str:
     default = ET.SubElement(root, "default")
     ET.SubElement(default, "geom", contype="0", conaffinity="0", group="1", density="0")
     mu = model.mu_static
-    solref = f"{-model.ground_A:g} {-model.ground_B:g}"
+    solref = contact_solref(model)
     asset = ET.SubElement(root, "asset")
     world = ET.SubElement(root, "worldbody")
     ET.SubElement(world, "light", pos="0 0 3", dir="0 0 -1")

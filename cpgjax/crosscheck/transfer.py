@@ -71,6 +71,8 @@ def _setting(run) -> tuple[str, float | None, str | None]:
         evaluation = FORFEITS
     elif evaluation == "robust" and falls.get("fall_survival"):
         evaluation = SCALES
+    if evaluation != "thesis" and falls.get("bristle"):              # a foot stiffened up to 10^D: its own row
+        evaluation += f", bristle up to 10^{float(falls['bristle']):g}"
     return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
 
 
@@ -178,6 +180,8 @@ def plot(replays: list[Replay], out: str) -> None:
     ax.plot([0, hi], [0, hi], "k:", lw=1, label="same in both")
     ax.plot([0, hi], [0, MIN_RATIO * hi], color="0.6", lw=1, label=f"{MIN_RATIO:.0%} of ours")
     colors = dict(zip(MODES, ("tab:red", "tab:blue", "tab:green", "tab:purple"), strict=True))
+    others = iter(("tab:orange", "tab:brown", "tab:cyan", "tab:olive", "tab:pink"))
+    colors |= {m: next(others, "0.3") for m in sorted({r.evaluation for r in replays} - set(MODES))}
     for mode in sorted({r.evaluation for r in replays}, key=lambda m: (MODES.index(m) if m in MODES else 9, m)):
         rs = [r for r in replays if r.evaluation == mode]
         fell = [r.mujoco_jit["falls"] > MAX_FALLS for r in rs]

@@ -22,6 +22,7 @@ def test_crosscheck_reports_every_engine_and_writes_plots(tmp_path, capsys):
     out = capsys.readouterr().out
     assert rc == 0
     assert "penalty vs mujoco" in out and "quadruped-trot.ctl" in out
+    assert "mujoco vs mujoco at half its step (1 ms)" in out  # the ceiling, on by default
     for f in ("crosscheck.md", "joints.png", "cm_path.png"):
         assert os.path.getsize(tmp_path / f) > 0
 

@@ -80,3 +80,45 @@ def test_the_exported_heightfield_has_our_heights_where_we_have_them():
     for x, y in ((0.0, -2.0), (0.5, 0.0), (-1.0, 3.0), (1.0, 8.0)):
         dist = mujoco.mj_ray(mj, d, np.array([x, y, 10.0]), np.array([0.0, 0.0, -1.0]), None, 1, -1, geomid)
         assert abs((10.0 - dist) - float(m.terrain.height_np(np.array(x), np.array(y)))) < 2e-3, (x, y)
+
+
+def _max_penetration_closed_form(mass, n, A, B, v0, g=9.81):
+    """Deepest penetration of a rigid body of `mass` landing at `v0` on `n` contacts of eq. 3.7 (linear ODE)."""
+    w2, c, dt = n * A / mass, n * B / mass, 1e-6
+    p, v, deepest = 0.0, v0, 0.0
+    while v > 0 or p <= 0:                      # until the penetration turns back
+        a = g - w2 * p - c * v
+        v += a * dt
+        p += v * dt
+        deepest = max(deepest, p)
+    return deepest
+
+
+@pytest.mark.parametrize("mass", [1.0, 13.8])
+def test_mujoco_ground_is_eq_3_7_for_a_light_and_a_heavy_body(mass):
+    """MuJoCo's direct solref is per unit mass; eq. 3.7's A, B are forces.  A box dropped 1 cm onto its four
+    bottom corners sinks as deep in MuJoCo as the closed form of eq. 3.7 says (and as it does here), for a
+    light and a heavy box alike.  With ``solref = -A -B`` (the export before) both boxes sank 0.32 mm in MuJoCo,
+    whatever their mass: 3.4x eq. 3.7's depth for the 1 kg box, 0.3x for the 13.8 kg one."""
+    import mujoco
+    from simcases import box
+
+    from cpgjax.crosscheck.mjcf import CONTACT_RADIUS
+
+    m = box(z=0.06, mass=mass, log_rate=2000)                 # bottom 1 cm above the ground
+    # ours at a step small enough that the step in which a corner crosses the surface unopposed does not count
+    r = simulate(m.replace(dt=2e-5), np.zeros((0, 5)), time=0.15, record=True)
+    ours = float((0.05 - r["traj"]["x"][:, 2, 0]).max())
+    expect_ours = _max_penetration_closed_form(mass, 4, m.ground_A, m.ground_B, np.sqrt(2 * 9.81 * 0.01))
+    # MuJoCo, at the same small step (its contact spheres reach 2 mm below the corners: a 8 mm fall)
+    mj = load(m, timestep=2e-5)
+    d = mujoco.MjData(mj)
+    deepest = 0.0
+    for _ in range(7500):
+        mujoco.mj_step(mj, d)
+        if d.ncon:
+            deepest = max(deepest, -float(d.contact.dist[: d.ncon].min()))
+    expect_mj = _max_penetration_closed_form(mass, 4, m.ground_A, m.ground_B,
+                                             np.sqrt(2 * 9.81 * (0.01 - CONTACT_RADIUS)))
+    assert abs(ours - expect_ours) < 0.1 * expect_ours, (ours, expect_ours)
+    assert abs(deepest - expect_mj) < 0.15 * expect_mj, (deepest, expect_mj)
