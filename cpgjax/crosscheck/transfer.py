@@ -14,8 +14,10 @@ nominal terrain, without the evaluation's roughness).
 
 from __future__ import annotations
 
+import functools
 import json
 import os
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,10 +84,16 @@ def _stats(res: dict) -> dict:
             "speed": float(np.asarray(res["speed"], float).mean())}
 
 
+@functools.lru_cache(maxsize=8)
+def _model(text: str, path: str, terrain):
+    """One Model object per model text: the simulator's compiled programs are cached per Model object, so the
+    runs of a sweep (one model) share one compilation instead of compiling one each."""
+    return build_model(parse_wl(text, path), terrain=terrain)
+
+
 def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, progress=None) -> list[Replay]:
     """Replay the best controller of every run in ``paths`` here and in MuJoCo C (see the module docstring)."""
     out = []
-    rng = np.random.default_rng(seed)
     for path in run_files(paths):
         run = read_run(path)
         if run.completed == 0:
@@ -95,9 +103,10 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         text = str(run.meta.get("model_text", ""))
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
-        model = build_model(parse_wl(text, str(run.meta.get("model_path", path))), terrain=terrain)
+        model = _model(text, str(run.meta.get("model_path", path)), terrain)
         T = float(time or model.time_max)
         c = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
+        rng = np.random.default_rng([seed, zlib.crc32(c.tobytes())])   # the jitter depends on the controller only
         C = np.concatenate([c[None], np.clip(c[None] + rng.normal(0, jitter, (replays,) + c.shape), -0.8, 0.8)])
         C = C.astype(np.float32)
         ours = simulate(model, C, time=T)

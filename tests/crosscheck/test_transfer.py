@@ -25,7 +25,7 @@ def runs(tmp_path_factory):
 def test_transfer_table_json_and_figure(runs, tmp_path, capsys):
     out = tmp_path / "out"
     files = [str(runs / "thesis.h5"), str(runs / "robust.h5")]
-    assert cli.main(["transfer", *files, "--replays", "3", "--out", str(out)]) == 0
+    assert cli.main(["transfer", *files, "--replays", "2", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "| thesis |" in text and "| robust |" in text and "carries over" in text
     data = json.loads((out / "transfer.json").read_text())
