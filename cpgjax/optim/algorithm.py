@@ -160,6 +160,15 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
     mutation rate ``[R]``, the metrics ``[R, N]`` and the new state.
     """
     G = problem.n_genes
+    # The evaluation as a jitted function of its own, whose constants (the model's arrays) stay literals
+    # inside it.  Why: `make_chunk_fn` runs this generation in a `lax.cond`, and JAX passes a cond branch's
+    # closed-over constants to XLA as operands of the conditional.  XLA sinks constant operands into while
+    # loops but not into conditional branches, so on ONE host device (no `shard_map`, whose partitioning
+    # happened to put them back) expressions of the model's constants (1/m, c / (1 + dt c / I)) were
+    # computed at run time rather than folded at compile time as in ``jax.jit(problem.evaluate)`` alone,
+    # and a robot's score differed in its last bits from the same robot evaluated alone
+    # (tests/experiments/test_sweep.py).  With two or more devices it changes no result.
+    evaluate = jax.jit(problem.evaluate)
 
     def generation(params, states, kps, kus, gens, targets):
         proposals = []
@@ -172,9 +181,9 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
         if problem.stochastic:
             keys = [jax.vmap(partial(eval_keys, n=a.population))(ku, gen).reshape(-1)
                     for a, ku, gen in zip(algos, kus, gens, strict=True)]
-            ev = problem.evaluate(flat, jnp.concatenate(keys))
+            ev = evaluate(flat, jnp.concatenate(keys))
         else:
-            ev = problem.evaluate(flat)
+            ev = evaluate(flat)
         new_states, rows, off = [], [], 0
         for a, p, s, ku, gen, tgt, x, r in zip(algos, params, states, kus, gens, targets, proposals, sizes,
                                               strict=True):

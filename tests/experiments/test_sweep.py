@@ -89,6 +89,48 @@ def test_baselines_propose_as_cpgjax_search_and_score_their_genomes(quad_sweep, 
             np.testing.assert_array_equal(f, a.fitness[gen])
 
 
+# run in a subprocess with ONE host device: a tiny sweep of random search and amc, each stored fitness re-evaluated
+ONE_DEVICE = """
+import sys
+import cpgjax  # first: the host device count (cpgjax/_xla.py)
+import jax
+import jax.numpy as jnp
+import numpy as np
+from cpgjax.experiments import sweep
+from cpgjax.io.results import read_run
+
+wl, out = sys.argv[1:3]
+assert len(jax.devices()) == 1, jax.devices()
+specs = sweep.plan(out, sweep.baseline_cells(["random", "amc3"], samples=12, batch=6), [1])
+sweep.run_sweep(sweep.sweep_problem({"model": wl, "time": 0.5}, batch=sweep.total_batch(specs)), specs,
+                progress=False)
+evaluate = jax.jit(sweep.sweep_problem({"model": wl, "time": 0.5}).evaluate)
+for s in specs:
+    run = read_run(s.path)
+    assert run.completed == 2
+    for gen in range(run.completed):
+        f = np.asarray(evaluate(jnp.asarray(run.genomes[gen]))["fitness"])
+        np.testing.assert_array_equal(f, run.fitness[gen], err_msg=f"{s.cell}, generation {gen}")
+"""
+
+
+def test_baselines_score_their_genomes_on_one_host_device_too(tmp_path):
+    """As above with ONE host device (``CPGJAX_DEVICES=1``: no `shard_map`, the simulation inline in the sweep's
+    `lax.cond`): each stored fitness is still exactly the simulator's for the stored genome (it differed in its
+    last bits when the model's constants reached the simulation as operands of the conditional; see
+    `cpgjax.optim.algorithm.generation_step`)."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, CPGJAX_DEVICES="1")
+    # this process's device count (cpgjax/_xla.py puts it in XLA_FLAGS) must not pass to the child
+    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split()
+                                if not f.startswith("--xla_force_host_platform_device_count"))
+    r = subprocess.run([sys.executable, "-c", ONE_DEVICE, WL, str(tmp_path / "one")], cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-4000:]
+
+
 def test_resume_after_interruption_equals_uninterrupted(quad_sweep, tmp_path):
     out = str(tmp_path / "resumed")
     args = ["sweep", WL, *QUAD, "--gamma", "0.1", "--pocket", "0,2", "--crossover", "off,on", "--seeds", "2",
