@@ -11,9 +11,10 @@ per-run HDF5 files (``OUT`` must be one folder every node sees: a shared file sy
 one task per node, sized by the node's CPUs (``workers=N``: N tasks of ``CPUs / N`` cores each).
 
 **Same numbers.**  A robot's result does not depend on the batch it is in, its chunk, nor on the
-number of host devices when there are two or more; with ONE host device XLA compiles the sweep's
-program differently (no ``shard_map``) and a baseline's fitness differs in its last bits, so a
-worker always has at least 2 host devices (two share one core when it has one).  Hence a sweep on
+number of host devices when there are two or more.  ONE host device is self-consistent (a sweep's
+stored fitness equals its genomes evaluated alone: ``optim/algorithm.py: generation_step``), but XLA
+compiles the program without ``shard_map`` and the robust evaluation rounds differently from two
+devices, so a worker always has at least 2 host devices (two share one core when it has one).  Hence a sweep on
 Ray holds bit for bit the files of the same sweep in one process (``tests/experiments/test_cluster.py``).
 
 **Faults.**  A task whose worker dies is retried by Ray (``max_retries``); the retry resumes its runs
