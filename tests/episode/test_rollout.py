@@ -49,13 +49,15 @@ def test_left_right_symmetric_gait_does_not_drift_sideways(quad):
 
 def test_a_batch_of_n_equals_n_single_runs_and_is_deterministic(quad):
     rng = np.random.default_rng(0)
-    C = rng.uniform(-0.5, 0.5, (37, 8, 5))  # not a multiple of the SIMD width, split over devices
+    # not a multiple of the SIMD width, split over devices, and over 96 per device: where XLA would hand the
+    # reductions to YNNPACK, which sums in another order (cpgjax/_xla.py)
+    C = rng.uniform(-0.5, 0.5, (197, 8, 5))
     batch = simulate(quad, C, time=1.0)
     again = simulate(quad, C, time=1.0)
     for k in batch:
         np.testing.assert_array_equal(batch[k], again[k])
     recorded = simulate(quad, C[:3], time=1.0, record=True)
-    for i in (0, 1, 2, 20, 36):
+    for i in (0, 1, 2, 20, 196):
         one = simulate(quad, C[i], time=1.0)
         np.testing.assert_array_equal(one["distance"], batch["distance"][i])
         np.testing.assert_array_equal(one["fitness"], batch["fitness"][i])
