@@ -161,10 +161,12 @@ def test_read_only_folder(tmp_path, capsys):
 def _cpgjax(*argv: str) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")}
     # SIGINT as a terminal gives it: a suite started in the background (`make test &`) runs with SIGINT
-    # ignored, which children inherit, and Python then installs no KeyboardInterrupt handler
-    return subprocess.Popen([sys.executable, "-m", "cpgjax.cli", *argv], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    # ignored, which children inherit, and Python then installs no KeyboardInterrupt handler; so the child
+    # installs it before it runs `python -m cpgjax.cli` (no preexec_fn: forking a threaded JAX process)
+    boot = ("import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+            "runpy.run_module('cpgjax.cli', run_name='__main__', alter_sys=True)")
+    return subprocess.Popen([sys.executable, "-c", boot, *argv], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
 
 
 def _interrupt_when(proc: subprocess.Popen, ready, timeout: float = 120) -> tuple[str, str]:
