@@ -182,7 +182,7 @@ def plot(replays: list[Replay], out: str) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(5.5, 5), layout="constrained")
+    fig = Figure(figsize=(9, 5), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     hi = max([0.05] + [max(r.ours["fitness"], r.mujoco["fitness"]) for r in replays]) * 1.1
@@ -208,5 +208,5 @@ def plot(replays: list[Replay], out: str) -> None:
     ax.set_ylabel("fitness in MuJoCo C")
     ax.set_title("Do evolved gaits carry over? (MuJoCo as the robot)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper left")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))   # beside the axes: no point hidden
     fig.savefig(out, dpi=110)
