@@ -116,7 +116,7 @@ def table(rows, summary, engines) -> str:
             a, b = k[4:].split("_")
             dist = summary["rho_dist_" + a + "_" + b]
             if b == "half":
-                lines.append(f"- fitness mujoco vs mujoco at half its step ({MJ_TIMESTEP * 500:g} ms): {v:+.3f}  "
+                lines.append(f"- fitness mujoco vs mujoco at half its step ({MJ_TIMESTEP / 2 * 1e3:g} ms): {v:+.3f}  "
                              f"(distance: {dist:+.3f}); the ceiling: what discretisation alone costs")
             else:
                 lines.append(f"- fitness {a} vs {b}: {v:+.3f}  (distance: {dist:+.3f})")
