@@ -31,8 +31,10 @@ def register(subparsers: Any) -> None:
     c.add_argument("--show", type=o.count0, default=0, help="which controller to plot (index, default 0)")
     c.add_argument("--no-mjx", action="store_true", help="skip MJX (slow to compile)")
     c.add_argument("--no-ceiling", action="store_true",
-                   help="skip MuJoCo C at half its step (the rank correlation MuJoCo has with itself: the ceiling)")
+                   help="skip MuJoCo C and the penalty simulator at half their steps (the rank correlation each "
+                        "engine has with itself: the ceiling)")
     c.add_argument("--seed", type=o.seed, default=0, help="random seed (default 0)")
+    _variant_options(c)
     c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
     c.set_defaults(func=cmd_crosscheck)
 
@@ -45,9 +47,20 @@ def register(subparsers: Any) -> None:
     t.add_argument("--replays", type=o.count, default=32, help="jittered replays per run (default 32)")
     t.add_argument("--jitter", type=o.nonneg, default=1e-3, help="sd of the gene jitter, rad (default 1e-3)")
     t.add_argument("--seed", type=o.seed, default=0, help="random seed of the jitter (default 0)")
+    _variant_options(t)
     t.add_argument("--out", default=None, metavar="DIR", help="write transfer.md, transfer.json and transfer.png here")
     t.add_argument("--json", action="store_true", help="print one JSON object with the summary instead of the table")
     t.set_defaults(func=cmd_transfer)
+
+
+def _variant_options(p: argparse.ArgumentParser) -> None:
+    """Options that change our simulator's side only (MuJoCo's model does not depend on them)."""
+    p.add_argument("--dt", type=o.step,
+                   help="our simulator's step (default: the model's TimeStep, 5e-4 s for models/quadruped.wl)")
+    p.add_argument("--joint-spring", type=o.positive, nargs=2, metavar=("ALPHA", "BETA"),
+                   help="our pivot springs' stiffness [N/m] and damping [N s/m] (eq. 3.6; default: the model's "
+                        "JointSpring, 3e5 300 for models/quadruped.wl); stiffer ones need a smaller --dt "
+                        "(cpgjax study-dt)")
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -71,7 +84,9 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     from cpgjax.io.wl import load_model
 
     o.check_output_dir(args.out)
-    model = load_model(args.model, terrain=args.terrain)
+    from cpgjax.crosscheck.transfer import variant
+
+    model = variant(load_model(args.model, terrain=args.terrain), args.dt, args.joint_spring)
     here = os.path.dirname(os.path.abspath(args.model))
     trot = os.path.join(here, "quadruped-trot.ctl")
     base = args.perturb_ctl or (trot if os.path.exists(trot) and model.n_ctrl == 8 else None)
@@ -104,9 +119,16 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     files = transfer.run_files(args.runs)
     with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
-                                       progress=lambda _: bar.update())
+                                       dt=args.dt, joint_spring=args.joint_spring, progress=lambda _: bar.update())
     summary = transfer.summary(replays)
-    text = transfer.table(replays, args.replays)
+    here = []
+    if args.dt is not None:
+        here.append(f"step {args.dt * 1e3:g} ms")
+        summary["dt"] = args.dt
+    if args.joint_spring is not None:
+        here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
+        summary["joint_spring"] = list(args.joint_spring)
+    text = transfer.table(replays, args.replays, here=", ".join(here) or None)
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "transfer.md"), "w") as f:

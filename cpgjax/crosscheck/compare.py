@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import joint_angles, mjx_run, mujoco_run, spearman
+from cpgjax.crosscheck.engines import joint_angles, mjx_run, mujoco_run, spearman, spearman_interval
 from cpgjax.crosscheck.mjcf import MJ_TIMESTEP
 
 ENGINES = ("penalty", "mujoco", "mjx")
@@ -62,7 +62,9 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
 
     With ``ceiling``, MuJoCo C also runs every controller at half its step: the rank correlation
     of MuJoCo with itself (``rho_mujoco_half``) is what discretisation alone costs on this set of
-    controllers, the ceiling against which the other engines' agreement with MuJoCo is read.
+    controllers, the ceiling against which the other engines' agreement with MuJoCo is read.  The
+    penalty simulator does the same at half its step (``rho_penalty_half``): an engine cannot agree
+    with MuJoCo better than it agrees with itself.
     """
     from cpgjax.episode.batch import simulate
 
@@ -83,15 +85,22 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
                 row[f"{e}_{k}"] = float(np.asarray(res[e][k])[i])
             row[f"{e}_fallen"] = bool(np.asarray(res[e]["fallen"])[i])
         rows.append(row)
-    summary = {"n": len(labels), "time": time}
+    summary = {"n": len(labels), "time": time, "penalty_dt": model.dt, "penalty_alpha": model.alpha,
+               "penalty_beta": model.beta}
     for a, b in (("penalty", "mujoco"), ("penalty", "mjx"), ("mujoco", "mjx")):
         if a in res and b in res:
             summary[f"rho_{a}_{b}"] = spearman(res[a]["fitness"], res[b]["fitness"])
+            summary[f"ci_{a}_{b}"] = spearman_interval(res[a]["fitness"], res[b]["fitness"])
             summary[f"rho_dist_{a}_{b}"] = spearman(res[a]["distance"], res[b]["distance"])
     if ceiling:
         half = mujoco_run(model, coeffs, time=time, delta=delta, timestep=MJ_TIMESTEP / 2)[0]
         summary["rho_mujoco_half"] = spearman(res["mujoco"]["fitness"], half["fitness"])
+        summary["ci_mujoco_half"] = spearman_interval(res["mujoco"]["fitness"], half["fitness"])
         summary["rho_dist_mujoco_half"] = spearman(res["mujoco"]["distance"], half["distance"])
+        half = simulate(model.replace(dt=model.dt / 2), coeffs, time=time, delta=delta)
+        summary["rho_penalty_half"] = spearman(pen["fitness"], half["fitness"])
+        summary["ci_penalty_half"] = spearman_interval(pen["fitness"], half["fitness"])
+        summary["rho_dist_penalty_half"] = spearman(pen["distance"], half["distance"])
     if out_dir:
         os.makedirs(out_dir, exist_ok=True)
         with open(os.path.join(out_dir, "crosscheck.md"), "w") as f:
@@ -110,16 +119,23 @@ def table(rows, summary, engines) -> str:
             cells += [f"{r[f'{e}_distance']:+.3f}{fell}", f"{r[f'{e}_fitness']:+.4f}"]
         lines.append(f"| {r['controller']} | " + " | ".join(cells) + " |")
     lines.append("")
-    lines.append(f"{summary['n']} controllers, {summary['time']:g} s each.  Spearman rank correlation:")
+    if "penalty_dt" in summary:
+        lines.append(f"Our simulator: step {summary['penalty_dt'] * 1e3:g} ms, pivot springs "
+                     f"{summary['penalty_alpha']:g} N/m, {summary['penalty_beta']:g} N s/m (eq. 3.6).")
+    lines.append(f"{summary['n']} controllers, {summary['time']:g} s each.  Spearman rank correlation "
+                 "(95 % bootstrap interval over the controllers):")
     for k, v in summary.items():
         if k.startswith("rho_") and not k.startswith("rho_dist"):
             a, b = k[4:].split("_")
             dist = summary["rho_dist_" + a + "_" + b]
+            lo, hi = summary.get("ci_" + a + "_" + b, (float("nan"), float("nan")))
+            val = f"{v:+.3f} [{lo:+.2f}, {hi:+.2f}]"
             if b == "half":
-                lines.append(f"- fitness mujoco vs mujoco at half its step ({MJ_TIMESTEP / 2 * 1e3:g} ms): {v:+.3f}  "
-                             f"(distance: {dist:+.3f}); the ceiling: what discretisation alone costs")
+                step = MJ_TIMESTEP if a == "mujoco" else summary["penalty_dt"]
+                lines.append(f"- fitness {a} vs {a} at half its step ({step / 2 * 1e3:g} ms): {val}  "
+                             f"(distance: {dist:+.3f}); {a}'s ceiling: what discretisation alone costs")
             else:
-                lines.append(f"- fitness {a} vs {b}: {v:+.3f}  (distance: {dist:+.3f})")
+                lines.append(f"- fitness {a} vs {b}: {val}  (distance: {dist:+.3f})")
     return "\n".join(lines)
 
 

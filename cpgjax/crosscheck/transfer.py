@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import mujoco_run, spearman
+from cpgjax.crosscheck.engines import mujoco_run, spearman, spearman_interval
 from cpgjax.crosscheck.mjcf import load
 from cpgjax.episode.batch import simulate
 from cpgjax.io.results import read_run
@@ -84,15 +84,33 @@ def _stats(res: dict) -> dict:
             "speed": float(np.asarray(res["speed"], float).mean())}
 
 
+def variant(model, dt: float | None = None, joint_spring=None):
+    """``model`` with our simulator's step and pivot springs (alpha, beta; eq. 3.6) replaced where given.
+
+    MuJoCo's exported model depends on neither: this changes only our side of a comparison.
+    """
+    changes = {}
+    if dt is not None:
+        changes["dt"] = float(dt)
+    if joint_spring is not None:
+        changes["alpha"], changes["beta"] = (float(v) for v in joint_spring)
+    return model.replace(**changes) if changes else model
+
+
 @functools.lru_cache(maxsize=8)
-def _model(text: str, path: str, terrain):
+def _model(text: str, path: str, terrain, dt=None, joint_spring=None):
     """One Model object per model text: the simulator's compiled programs are cached per Model object, so the
     runs of a sweep (one model) share one compilation instead of compiling one each."""
-    return build_model(parse_wl(text, path), terrain=terrain)
+    return variant(build_model(parse_wl(text, path), terrain=terrain), dt, joint_spring)
 
 
-def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, progress=None) -> list[Replay]:
-    """Replay the best controller of every run in ``paths`` here and in MuJoCo C (see the module docstring)."""
+def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, dt: float | None = None,
+                joint_spring=None, progress=None) -> list[Replay]:
+    """Replay the best controller of every run in ``paths`` here and in MuJoCo C (see the module docstring).
+
+    ``dt``, ``joint_spring``: replay here with another step or pivot springs (:func:`variant`).
+    """
+    joint_spring = tuple(joint_spring) if joint_spring is not None else None
     out = []
     for path in run_files(paths):
         run = read_run(path)
@@ -103,7 +121,7 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         text = str(run.meta.get("model_text", ""))
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
-        model = _model(text, str(run.meta.get("model_path", path)), terrain)
+        model = _model(text, str(run.meta.get("model_path", path)), terrain, dt, joint_spring)
         T = float(time or model.time_max)
         c = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
         rng = np.random.default_rng([seed, zlib.crc32(c.tobytes())])   # the jitter depends on the controller only
@@ -140,17 +158,19 @@ def summary(replays: list[Replay]) -> dict:
             "carry_over": int(sum(r.carries_over for r in rs)),
         }
     if len(replays) > 2:
-        out["spearman_fitness"] = spearman([r.ours["fitness"] for r in replays],
-                                           [r.mujoco["fitness"] for r in replays])
+        ours, theirs = [r.ours["fitness"] for r in replays], [r.mujoco["fitness"] for r in replays]
+        out["spearman_fitness"] = spearman(ours, theirs)
+        out["spearman_fitness_interval"] = spearman_interval(ours, theirs)
     return out
 
 
-def table(replays: list[Replay], replay_count: int) -> str:
-    """The markdown table: one row per run, then one per evaluation mode."""
+def table(replays: list[Replay], replay_count: int, here: str | None = None) -> str:
+    """The markdown table: one row per run, then one per evaluation mode (``here``: a note on our side's model)."""
     n = replay_count
-    lines = [f"| run | evaluation | fitness here | speed here [m/s] | fitness MuJoCo | speed MuJoCo [m/s] | ratio | "
-             f"here, {n} jittered: mean ± sd (falls) | MuJoCo, {n} jittered: mean ± sd (falls) | carries over |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+    lines = [f"Here: {here}.", ""] if here else []
+    lines += [f"| run | evaluation | fitness here | speed here [m/s] | fitness MuJoCo | speed MuJoCo [m/s] | ratio | "
+              f"here, {n} jittered: mean ± sd (falls) | MuJoCo, {n} jittered: mean ± sd (falls) | carries over |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in replays:
         fell = lambda d: " (fell)" if d["fallen"] else ""  # noqa: E731
         lines.append(
@@ -171,7 +191,8 @@ def table(replays: list[Replay], replay_count: int) -> str:
                      f"{m['carry_over']} of {m['runs']} |")
     if "spearman_fitness" in s:
         lines += ["", f"Spearman rank correlation of fitness, here vs MuJoCo, over these runs' bests: "
-                      f"{s['spearman_fitness']:+.2f}"]
+                      f"{s['spearman_fitness']:+.2f} (95 % bootstrap interval "
+                      f"[{s['spearman_fitness_interval'][0]:+.2f}, {s['spearman_fitness_interval'][1]:+.2f}])"]
     lines += ["", f"Carries over: MuJoCo fitness ≥ {MIN_RATIO:.0%} of ours and at most {MAX_FALLS} falls in the "
                   f"{n} jittered MuJoCo replays."]
     return "\n".join(lines)

@@ -18,11 +18,14 @@ def test_export_writes_loadable_mjcf(tmp_path, capsys):
 
 def test_crosscheck_reports_every_engine_and_writes_plots(tmp_path, capsys):
     rc = main(["crosscheck", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--random", "2",
-               "--perturbed", "1", "--time", "1", "--no-mjx", "--out", str(tmp_path)])
+               "--perturbed", "1", "--time", "1", "--no-mjx", "--dt", "4e-4", "--joint-spring", "4e5", "400",
+               "--out", str(tmp_path)])
     out = capsys.readouterr().out
     assert rc == 0
+    assert "Our simulator: step 0.4 ms, pivot springs 400000 N/m, 400 N s/m" in out
     assert "penalty vs mujoco" in out and "quadruped-trot.ctl" in out
     assert "mujoco vs mujoco at half its step (1 ms)" in out  # the ceiling, on by default
+    assert "penalty vs penalty at half its step (0.2 ms)" in out  # ours against itself
     for f in ("crosscheck.md", "joints.png", "cm_path.png"):
         assert os.path.getsize(tmp_path / f) > 0
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from simcases import rig
 
-from cpgjax.crosscheck.engines import joint_angles, mujoco_run, spearman
+from cpgjax.crosscheck.engines import joint_angles, mujoco_run, spearman, spearman_interval
 from cpgjax.crosscheck.mjcf import load, to_mjcf
 from cpgjax.episode.batch import simulate
 from cpgjax.io.ctl import read_ctl
@@ -66,6 +66,19 @@ def test_spearman():
     assert spearman([1, 2, 3, 4], [10, 20, 30, 40]) == pytest.approx(1.0)
     assert spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
     assert spearman([1, 2, 2, 3], [1, 2, 3, 4]) > 0.9
+
+
+def test_spearman_interval_holds_the_estimate_and_narrows_with_more_controllers():
+    rng = np.random.default_rng(3)
+    widths = []
+    for n in (24, 400):
+        a = rng.normal(size=n)
+        b = a + 0.8 * rng.normal(size=n)          # population rank correlation about 0.76
+        lo, hi = spearman_interval(a, b)
+        assert lo < spearman(a, b) < hi
+        widths.append(hi - lo)
+    assert widths[1] < widths[0] / 2               # the interval shrinks like 1/sqrt(n)
+    assert spearman_interval(np.arange(10.0), np.arange(10.0) ** 3) == (1.0, 1.0)
 
 
 def test_the_exported_heightfield_has_our_heights_where_we_have_them():
