@@ -14,9 +14,9 @@ forces (normal >= 0, friction within mu f_n, servo within tau_max) are found in 
 What it measured (2-core AMD EPYC, 2026-11-24; numbers in docs/simulator.md, "A coupled implicit
 step"): stable with pivot springs 10x stiffer (3e6 N/m) at 2 ms; the standing height exactly the
 explicit step's; within 1 mm / 0.004 rad of the converged trajectory over 0.3 s at 0.5 ms; but
-10x the explicit step's cost per step on XLA CPU (small dense 6x6 blocks), and its two-pass
-stick/slip costs the trot 8-10 % of its speed at steps >= 0.25 ms (0.135 against the converged
-0.147) and far more with a stiff bristle.  Not adopted; kept so that the measurement can be rerun:
+10x the explicit step's cost per step on XLA CPU (small dense 6x6 blocks), and at steps >= 0.25 ms
+the trot loses 8-10 % of its speed (0.135 against the converged 0.147), far more with a stiff bristle;
+more stick/slip passes do not recover it (backward Euler on eq. 3.7's fast foot damper is much of it).  Not adopted; kept so that the measurement can be rerun:
 
     .venv/bin/python docs/experiments/coupled_implicit_step.py models/quadruped-stiff.wl 2e-3
 
