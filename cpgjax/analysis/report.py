@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from cpgjax.analysis.cells import ES_NAMES, load_cells
+from cpgjax.io.results import read_run
 from cpgjax.io.sweepdir import find_runs, same_setting
 
 PLATEAU = 20   # generations at the end over which the GA's best-of-generation is averaged ("plateau")
@@ -327,6 +328,25 @@ def _setting_rows(stats: list[CellStats]) -> list[str]:
     return rows
 
 
+def evaluation_line(files: Sequence[str]) -> str:
+    """How the sweep's runs scored a controller: the thesis's one exact episode, or the robust evaluation and its
+    ``--perturb`` ranges (a robust sweep's fitness is another quantity than the thesis's: compare ratios)."""
+    kinds = {}
+    for p in files:
+        meta = read_run(p).meta
+        ev = str(meta.get("evaluation", "thesis"))
+        if ev == "robust":
+            pert = meta.get("perturbations") or {}
+            ev = "robust (`--perturb " + ",".join(
+                f"{k}={('on' if v else 'off') if isinstance(v, bool) else f'{v:g}'}" for k, v in pert.items()) + "`)"
+        else:
+            ev = "thesis (one exact episode per controller)"
+        kinds[ev] = kinds.get(ev, 0) + 1
+    if len(kinds) == 1:
+        return f"Evaluation: {next(iter(kinds))}."
+    return "Evaluations: " + "; ".join(f"{k}: {n} runs" for k, n in kinds.items()) + "."
+
+
 def report(out_dir: str | os.PathLike[str]) -> str:
     """The markdown summary of a sweep: every cell (mean ± sd over seeds) and the thesis's claims checked."""
     files = [p for fs in find_runs(out_dir).values() for p in fs]
@@ -334,7 +354,7 @@ def report(out_dir: str | os.PathLike[str]) -> str:
         raise ValueError(f"no run files under {out_dir}")
     stats = [(c, cell_stats(c)) for c in load_cells(files)]
     ctx = Sweep(stats)
-    lines = [f"# Sweep report: `{os.fspath(out_dir)}`", "",
+    lines = [f"# Sweep report: `{os.fspath(out_dir)}`", "", evaluation_line(files), "",
              f"Best = best valid fitness found in the run; plateau = GA: mean of the best of each generation "
              f"over the last {PLATEAU} generations (searches: best so far at the end); t90 = first generation at "
              "which the 10-generation running mean of the best reaches 90 % of the way from generation 0 to "

@@ -47,6 +47,9 @@ def register(subparsers: Any) -> None:
     t.add_argument("--replays", type=o.count, default=32, help="jittered replays per run (default 32)")
     t.add_argument("--jitter", type=o.nonneg, default=1e-3, help="sd of the gene jitter, rad (default 1e-3)")
     t.add_argument("--seed", type=o.seed, default=0, help="random seed of the jitter (default 0)")
+    t.add_argument("--by", choices=("evaluation", "cell"), default="evaluation",
+                   help="summary rows per evaluation mode (default), or per setting of a sweep (its cell folders: "
+                        "which GA settings and baselines evolve gaits that carry over)")
     _variant_options(t)
     t.add_argument("--out", default=None, metavar="DIR", help="write transfer.md, transfer.json and transfer.png here")
     t.add_argument("--json", action="store_true", help="print one JSON object with the summary instead of the table")
@@ -120,7 +123,7 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
                                        dt=args.dt, joint_spring=args.joint_spring, progress=lambda _: bar.update())
-    summary = transfer.summary(replays)
+    summary = transfer.summary(replays, args.by)
     here = []
     if args.dt is not None:
         here.append(f"step {args.dt * 1e3:g} ms")
@@ -128,7 +131,7 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.joint_spring is not None:
         here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
         summary["joint_spring"] = list(args.joint_spring)
-    text = transfer.table(replays, args.replays, here=", ".join(here) or None)
+    text = transfer.table(replays, args.replays, here=", ".join(here) or None, by=args.by)
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "transfer.md"), "w") as f:

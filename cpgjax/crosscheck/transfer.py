@@ -141,13 +141,27 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
     return out
 
 
-def summary(replays: list[Replay]) -> dict:
-    """Per evaluation mode: runs, median and mean ratio, falls, how many carry over; Spearman over all runs."""
+GROUPS = ("evaluation", "cell")
+
+
+def _groups(replays: list[Replay], by: str) -> list[str]:
+    """The summary's rows: evaluation modes in :data:`MODES` order, or the sweep's cells as they come."""
+    if by not in GROUPS:
+        raise ValueError(f"by must be one of {GROUPS}, not {by!r}")
+    keys = list(dict.fromkeys(getattr(r, by) for r in replays))
+    if by == "evaluation":
+        keys.sort(key=lambda m: (MODES.index(m) if m in MODES else 9, m))
+    return keys
+
+
+def summary(replays: list[Replay], by: str = "evaluation") -> dict:
+    """Per evaluation mode (``by="cell"``: per setting of a sweep): runs, median and mean ratio, falls, how many
+    carry over; Spearman over all runs."""
     out: dict = {"runs": len(replays)}
-    for mode in sorted({r.evaluation for r in replays}):
-        rs = [r for r in replays if r.evaluation == mode]
+    for key in _groups(replays, by):
+        rs = [r for r in replays if getattr(r, by) == key]
         ratios = np.array([r.ratio for r in rs], float)
-        out[mode] = {
+        out[key] = {
             "runs": len(rs),
             "ours_fitness": float(np.mean([r.ours["fitness"] for r in rs])),
             "mujoco_fitness": float(np.mean([r.mujoco["fitness"] for r in rs])),
@@ -164,8 +178,9 @@ def summary(replays: list[Replay]) -> dict:
     return out
 
 
-def table(replays: list[Replay], replay_count: int, here: str | None = None) -> str:
-    """The markdown table: one row per run, then one per evaluation mode (``here``: a note on our side's model)."""
+def table(replays: list[Replay], replay_count: int, here: str | None = None, by: str = "evaluation") -> str:
+    """The markdown table: one row per run, then one per evaluation mode, or per cell with ``by="cell"`` (``here``:
+    a note on our side's model)."""
     n = replay_count
     lines = [f"Here: {here}.", ""] if here else []
     lines += [f"| run | evaluation | fitness here | speed here [m/s] | fitness MuJoCo | speed MuJoCo [m/s] | ratio | "
@@ -179,16 +194,15 @@ def table(replays: list[Replay], replay_count: int, here: str | None = None) -> 
             f"{r.ours_jit['mean']:.3f} ± {r.ours_jit['sd']:.3f} ({r.ours_jit['falls']}) | "
             f"{r.mujoco_jit['mean']:.3f} ± {r.mujoco_jit['sd']:.3f} ({r.mujoco_jit['falls']}) | "
             f"{'yes' if r.carries_over else 'no'} |")
-    s = summary(replays)
-    lines += ["", "| evaluation | runs | mean fitness here | mean fitness MuJoCo | ratio (median) | "
-              f"MuJoCo falls of {n} (mean) | falls here of {n} (mean) | runs that carry over |",
+    s = summary(replays, by)
+    lines += ["", f"| {'setting' if by == 'cell' else 'evaluation'} | runs | mean fitness here | mean fitness MuJoCo | "
+              f"ratio (median) | MuJoCo falls of {n} (mean) | falls here of {n} (mean) | runs that carry over |",
               "|---|---:|---:|---:|---:|---:|---:|---:|"]
-    modes = (k for k, v in s.items() if isinstance(v, dict))
-    for mode in sorted(modes, key=lambda m: (MODES.index(m) if m in MODES else 9, m)):
-        m = s[mode]
-        lines.append(f"| {mode} | {m['runs']} | {m['ours_fitness']:.3f} | {m['mujoco_fitness']:.3f} | "
-                     f"{m['ratio_median']:.2f} | {m['mujoco_falls_mean']:.1f} | {m['ours_falls_mean']:.1f} | "
-                     f"{m['carry_over']} of {m['runs']} |")
+    for key in _groups(replays, by):
+        m = s[key]
+        lines.append(f"| {key} | {m['runs']} | {m['ours_fitness']:.3f} | {m['mujoco_fitness']:.3f} | "
+                     f"{m['ratio_median']:.2f} | {m['mujoco_falls_mean']:.1f} | "
+                     f"{m['ours_falls_mean']:.1f} | {m['carry_over']} of {m['runs']} |")
     if "spearman_fitness" in s:
         lines += ["", f"Spearman rank correlation of fitness, here vs MuJoCo, over these runs' bests: "
                       f"{s['spearman_fitness']:+.2f} (95 % bootstrap interval "

@@ -53,7 +53,7 @@ def test_each_claim_returns_rows_or_nothing(sweep):
 
 def test_report_has_the_table_and_every_claim(sweep):
     text = rep.report(sweep)
-    assert text.startswith(f"# Sweep report: `{sweep}`")
+    assert text.startswith(f"# Sweep report: `{sweep}`\n\nEvaluation: thesis (one exact episode per controller).\n")
     assert "| ga | N=6, μmax=" in text and "| random |" in text and "| amc |" in text
     for needle in ["Pocketing (2 of N) more than doubles the plateau", "residual oscillation is much reduced",
                    "Large γ saturates early, reaching a plateau (Fig. 6.7; pocket 0)",

@@ -91,3 +91,28 @@ def test_every_evaluation_mode_has_its_summary_row():
     assert "| thesis | 1 | 0.200 | 0.050 | 0.25 | 30.0 | 0.0 | 0 of 1 |" in text
     assert "| robust, a fall forfeits | 2 | 0.150 | 0.105 | 0.60 | 0.5 | 0.0 | 1 of 2 |" in text
     assert text.index("| thesis | 1") < text.index("| robust, a fall forfeits | 2")
+
+
+def test_a_sweeps_runs_can_be_summarised_per_setting(runs, capsys):
+    def replay(cell, seed, ours, theirs, falls):
+        jit = {"mean": theirs, "sd": 0.0, "falls": falls, "speed": theirs}
+        return transfer.Replay(run=f"{cell}/s{seed}.h5", evaluation="robust", cell=cell, seed=seed,
+                               fitness_in_run=ours, ours={"fitness": ours, "speed": ours, "distance": 0.0,
+                                                          "fallen": False},
+                               mujoco={"fitness": theirs, "speed": theirs, "distance": 0.0, "fallen": False},
+                               ours_jit=jit | {"mean": ours, "falls": 0}, mujoco_jit=jit)
+    rs = [replay("ga_g0", 0, 0.2, 0.18, 0), replay("amc_M5", 0, 0.3, 0.03, 20), replay("ga_g0", 1, 0.1, 0.02, 3)]
+    text = transfer.table(rs, 32, by="cell")
+    assert "| setting | runs |" in text
+    assert "| ga_g0 | 2 | 0.150 | 0.100 | 0.55 | 1.5 | 0.0 | 1 of 2 |" in text
+    assert "| amc_M5 | 1 | 0.300 | 0.030 | 0.10 | 20.0 | 0.0 | 0 of 1 |" in text
+    assert text.index("| ga_g0 | 2") < text.index("| amc_M5 | 1")            # the sweep's order, not sorted
+    assert set(transfer.summary(rs, "cell")) == {"runs", "ga_g0", "amc_M5", "spearman_fitness",
+                                                 "spearman_fitness_interval"}
+    with pytest.raises(ValueError, match="by must be one of"):
+        transfer.summary(rs, "seed")
+    # the command line: a run's folder is its cell
+    files = [str(runs / "thesis.h5"), str(runs / "robust.h5")]
+    assert cli.main(["transfer", *files, "--replays", "1", "--by", "cell", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary[runs.name]["runs"] == 2

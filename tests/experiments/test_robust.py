@@ -66,3 +66,9 @@ def test_a_sweep_run_equals_the_same_run_made_alone(robust, tmp_path):
     alone = tmp_path / "alone.h5"
     run_ga(robust, GAConfig(population=6, generations=2, pocket=2, gamma=1.0, seed=0), alone)
     same_rows(read_run(out / "ga_n6_mu0.2_g1_p2_xoff" / "s0.h5"), read_run(alone))
+
+
+def test_a_report_names_the_robust_evaluation_it_was_scored_with(robust_run):
+    from cpgjax.analysis.report import evaluation_line
+    line = evaluation_line([robust_run.path])
+    assert line.startswith("Evaluation: robust (`--perturb replicas=2,") and "fall_ends=on" in line
