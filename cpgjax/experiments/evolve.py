@@ -152,7 +152,8 @@ def check_stop() -> None:
 # Problem settings that do not change a fitness (a moved model file, how the options were spelled).
 _META_IGNORED = ("model_path", "cli_problem_args")
 # meta key -> (option, what it is, unit); checked in this order, every other key after them
-_META_OPTIONS = {"time": ("--time", "episode length", " s"), "terrain": ("--terrain", "terrain", ""),
+_META_OPTIONS = {"evaluation": ("--evaluation", "evaluation", ""),
+                 "time": ("--time", "episode length", " s"), "terrain": ("--terrain", "terrain", ""),
                  "delta": ("--delta", "delta of the fitness", ""), "replicas": ("--replicas", "replicas", ""),
                  "jitter": (None, "replicas' jitter", ""), "dt": ("--dt", "time step", " s")}
 _FIX = "(drop the option, or start anew with --overwrite)"
@@ -186,6 +187,15 @@ def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
         raise ResultsError(f"{path}: cannot resume: genome or population size differs from the stored run "
                            f"({problem.n_genes} genes x {algo.population} vs the run's {int(a['n_genes'])} x "
                            f"{int(a['population'])}) {_FIX}")
+    check_problem(path, problem, a)
+
+
+def check_problem(path: str, problem: Problem, attrs: dict | None = None, verb: str = "resume") -> None:
+    """Refuse ``problem`` where the run in ``path`` was scored with other settings (episode length, terrain,
+    delta, evaluation and its perturbations, time step, the model file's text, ...): :class:`ResultsError` naming
+    the first difference.  ``verb``: what is refused ("resume"; a sweep adding runs beside it: "add runs")."""
+    a = attrs if attrs is not None else read_attrs(path)
+    fix = _FIX if verb == "resume" else "(use the sweep's settings, or another --out)"
     old = json.loads(a.get("meta") or "{}")
     new = json.loads(json.dumps(dict(problem.meta), default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
     given = json.loads(new.get("cli_problem_args") or "{}")
@@ -193,15 +203,16 @@ def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
     # first what an option given now changes, then the model file, then whatever else differs
     for k in [k for k in _META_OPTIONS if k in differ and _META_OPTIONS[k][0] and given.get(k) is not None]:
         option, _, unit = _META_OPTIONS[k]
-        raise ResultsError(f"{path}: cannot resume: {option} {_fmt(new.get(k))} differs from the run's "
-                           f"{_fmt(old.get(k), unit)} {_FIX}")
+        raise ResultsError(f"{path}: cannot {verb}: {option} {_fmt(new.get(k))} differs from the run's "
+                           f"{_fmt(old.get(k), unit)} {fix}")
     if "model_text" in differ and old.get("model_text") and new.get("model_text"):
-        raise ResultsError(f"{path}: cannot resume: the model file {new.get('model_path', '')} changed since the "
-                           "run started (restore it, or start anew with --overwrite)")
+        raise ResultsError(f"{path}: cannot {verb}: the model file {new.get('model_path', '')} changed since the "
+                           "run started " + ("(restore it, or start anew with --overwrite)" if verb == "resume"
+                                             else fix))
     for k in [k for k in _META_OPTIONS if k in differ] + sorted(set(differ) - set(_META_OPTIONS) - {"model_text"}):
         _, what, unit = _META_OPTIONS.get(k, (None, k, ""))
-        raise ResultsError(f"{path}: cannot resume: the {what} {_fmt(new.get(k), unit)} differs from the run's "
-                           f"{_fmt(old.get(k), unit)} {_FIX}")
+        raise ResultsError(f"{path}: cannot {verb}: the {what} {_fmt(new.get(k), unit)} differs from the run's "
+                           f"{_fmt(old.get(k), unit)} {fix}")
 
 
 def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int, ...], Any]]:

@@ -330,3 +330,19 @@ def test_a_sweep_mixing_ga_and_evolution_strategies_equals_the_runs_made_one_by_
     text = open(os.path.join(out, "report.md")).read()
     assert text.count("(not in the thesis) The GA against") == 2 and "CMA-ES, N=8, σ0=0.3" in text
     assert os.path.getsize(fig) > 10_000
+
+
+def test_new_seeds_scored_otherwise_than_the_sweep_are_refused(tmp_path, capsys):
+    """Seeds added to a sweep folder must be scored as its runs are: a robust sweep does not take thesis seeds."""
+    out = str(tmp_path / "s")
+    base = ["sweep", WL, "--time", "0.3", "--population", "4", "--generations", "1", "--out", out, "--quiet"]
+    robust = ["--evaluation", "robust", "--perturb", "replicas=2"]
+    assert cli.main([*base, *robust, "--seeds", "1"]) == 0
+    assert cli.main([*base, "--seeds", "1:2"]) == 2             # seed 1 alone, without the robust evaluation
+    err = capsys.readouterr().err
+    assert "s0.h5: cannot add runs to this sweep: --evaluation thesis differs from the run's robust" in err
+    assert "(use the sweep's settings, or another --out)" in err
+    assert sorted(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == [os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff",
+                                                                                      "s0.h5")]
+    assert cli.main([*base, *robust, "--seeds", "1:2"]) == 0     # the sweep's own settings add it
+    assert len(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == 2

@@ -42,6 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.experiments.evolve import (
+    check_problem,
     check_stop,
     compile_ahead,
     deferred_sigint,
@@ -52,6 +53,7 @@ from cpgjax.experiments.evolve import (
 )
 from cpgjax.experiments.sweep.plan import MANIFEST, RunSpec
 from cpgjax.io.results import Row, RunWriter
+from cpgjax.io.sweepdir import find_runs
 from cpgjax.optim.algorithm import make_algorithm, make_chunk_fn, stack_params
 from cpgjax.optim.factory import make_problem
 from cpgjax.optim.problem import Problem
@@ -92,6 +94,15 @@ def write_manifest(out_dir: str | os.PathLike[str], specs: Sequence[RunSpec], pr
     return path
 
 
+def check_sweep_problem(out_dir: str | os.PathLike[str], problem: Problem) -> None:
+    """A sweep folder holds runs of one problem: refuse to add runs (new seeds, new settings) scored otherwise
+    than the runs already in it (another evaluation, episode length, terrain, model...), so that a cell never
+    mixes seeds of two evaluations.  Checks one run file (each run added since passed this check)."""
+    for files in find_runs(out_dir).values():
+        check_problem(files[0], problem, verb="add runs to this sweep")
+        return
+
+
 def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, overwrite: bool = False,
               progress: bool = True, stop_after: int | None = None, group: str = "all",
               callback: Callable[[int, dict[str, Any]], None] | None = None) -> dict[str, Any]:
@@ -99,7 +110,8 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
 
     ``group``: ``"all"`` puts every run in one XLA program (one evaluate call per generation);
     ``"kind"`` makes one program per group of same-shaped runs, run one after the other.
-    ``stop_after``: stop after that many sweep generations (tests of resume).  A Ctrl-C stops after
+    ``stop_after``: stop after that many sweep generations (tests of resume).  Unless ``overwrite``, the runs must
+    be scored as those already in their sweep folder are (:func:`check_sweep_problem`).  A Ctrl-C stops after
     the chunk in flight, once every computed generation is written (``KeyboardInterrupt``).
     """
     with deferred_sigint():
@@ -113,6 +125,10 @@ def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwr
     from tqdm.auto import tqdm
 
     t_begin = time.perf_counter()
+    if not overwrite:     # new runs beside existing ones (existing runs are checked as they are resumed)
+        for root in dict.fromkeys(os.path.dirname(os.path.dirname(s.path)) for s in specs
+                                  if not os.path.exists(s.path)):
+            check_sweep_problem(root, problem)
     by_group: dict[tuple, list[RunSpec]] = {}
     for s in specs:
         by_group.setdefault(_group_key(s), []).append(s)
