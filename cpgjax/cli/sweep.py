@@ -205,7 +205,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         o.check_output_dir(args.out)
         try:
             if args.ray is not None:
-                sweep.sweep_problem(pa)                # bad settings are refused here, not in every task
+                problem = sweep.sweep_problem(pa)      # bad settings are refused here, not in every task
+                if not args.overwrite:
+                    sweep.check_new_runs(problem, specs)
                 sweep.write_manifest(args.out, specs, pa)
                 summary = cluster.run_on_ray(pa, specs, address=args.ray or None, workers=args.workers,
                                              chunk=args.chunk, overwrite=args.overwrite,

@@ -342,6 +342,8 @@ def test_new_seeds_scored_otherwise_than_the_sweep_are_refused(tmp_path, capsys)
     err = capsys.readouterr().err
     assert "s0.h5: cannot add runs to this sweep: --evaluation thesis differs from the run's robust" in err
     assert "(use the sweep's settings, or another --out)" in err
+    assert cli.main([*base, "--seeds", "1:2", "--ray"]) == 2        # refused before any Ray task starts
+    assert "cannot add runs to this sweep: --evaluation thesis" in capsys.readouterr().err
     assert sorted(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == [os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff",
                                                                                       "s0.h5")]
     assert cli.main([*base, *robust, "--seeds", "1:2"]) == 0     # the sweep's own settings add it

@@ -6,7 +6,7 @@
 Reading a sweep back is in :mod:`cpgjax.io.sweepdir`; its report in :mod:`cpgjax.analysis.report`.
 """
 
-from cpgjax.experiments.sweep.driver import eval_chunk, run_sweep, sweep_problem, write_manifest
+from cpgjax.experiments.sweep.driver import check_new_runs, eval_chunk, run_sweep, sweep_problem, write_manifest
 from cpgjax.experiments.sweep.plan import (
     MANIFEST,
     SCALES,
@@ -21,5 +21,6 @@ from cpgjax.experiments.sweep.plan import (
     total_batch,
 )
 
-__all__ = ["MANIFEST", "SCALES", "RunSpec", "baseline_cells", "complete", "eval_chunk", "ga_cell_name", "ga_grid",
-           "plan", "run_sweep", "search_cell_name", "sweep_problem", "thesis_cells", "total_batch", "write_manifest"]
+__all__ = ["MANIFEST", "SCALES", "RunSpec", "baseline_cells", "check_new_runs", "complete", "eval_chunk",
+           "ga_cell_name", "ga_grid", "plan", "run_sweep", "search_cell_name", "sweep_problem", "thesis_cells",
+           "total_batch", "write_manifest"]

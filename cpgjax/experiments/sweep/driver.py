@@ -103,6 +103,13 @@ def check_sweep_problem(out_dir: str | os.PathLike[str], problem: Problem) -> No
         return
 
 
+def check_new_runs(problem: Problem, specs: Sequence[RunSpec]) -> None:
+    """:func:`check_sweep_problem` for the folders where ``specs`` add runs (existing runs are checked as they are
+    resumed)."""
+    for root in dict.fromkeys(os.path.dirname(os.path.dirname(s.path)) for s in specs if not os.path.exists(s.path)):
+        check_sweep_problem(root, problem)
+
+
 def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, overwrite: bool = False,
               progress: bool = True, stop_after: int | None = None, group: str = "all",
               callback: Callable[[int, dict[str, Any]], None] | None = None) -> dict[str, Any]:
@@ -125,10 +132,8 @@ def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwr
     from tqdm.auto import tqdm
 
     t_begin = time.perf_counter()
-    if not overwrite:     # new runs beside existing ones (existing runs are checked as they are resumed)
-        for root in dict.fromkeys(os.path.dirname(os.path.dirname(s.path)) for s in specs
-                                  if not os.path.exists(s.path)):
-            check_sweep_problem(root, problem)
+    if not overwrite:
+        check_new_runs(problem, specs)
     by_group: dict[tuple, list[RunSpec]] = {}
     for s in specs:
         by_group.setdefault(_group_key(s), []).append(s)
