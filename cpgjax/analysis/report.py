@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -9,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from cpgjax.analysis.cells import ES_NAMES, load_cells
-from cpgjax.io.results import read_run
+from cpgjax.io.results import read_attrs
 from cpgjax.io.sweepdir import find_runs, same_setting
 
 PLATEAU = 20   # generations at the end over which the GA's best-of-generation is averaged ("plateau")
@@ -331,9 +332,9 @@ def _setting_rows(stats: list[CellStats]) -> list[str]:
 def evaluation_line(files: Sequence[str]) -> str:
     """How the sweep's runs scored a controller: the thesis's one exact episode, or the robust evaluation and its
     ``--perturb`` ranges (a robust sweep's fitness is another quantity than the thesis's: compare ratios)."""
-    kinds = {}
+    kinds: dict[str, int] = {}
     for p in files:
-        meta = read_run(p).meta
+        meta = json.loads(read_attrs(p).get("meta") or "{}")      # the attributes only: no arrays read
         ev = str(meta.get("evaluation", "thesis"))
         if ev == "robust":
             pert = meta.get("perturbations") or {}
