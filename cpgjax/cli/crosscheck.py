@@ -42,11 +42,17 @@ def register(subparsers: Any) -> None:
         "transfer", help="do evolved gaits carry over? each run's best replayed in MuJoCo C (thesis Fig. 6.3-6.4)",
         description="Replay the best controller of each run (RUN.h5 files, or every run of sweep folders) in our "
                     "simulator and in MuJoCo C, once and under jittered replays; tabulate fitness and speed here vs "
-                    "there, their ratio and the falls, per evaluation mode (thesis / robust).")
+                    "there, their ratio and the falls, per evaluation mode (thesis / robust).  With --pick "
+                    "validated, each run's champion is first chosen by validation: its best candidates re-scored "
+                    "over fresh perturbed episodes, the same for each (docs/evolution.md).")
     t.add_argument("runs", nargs="+", metavar="RUN.h5|SWEEP_DIR")
     t.add_argument("--replays", type=o.count, default=32, help="jittered replays per run (default 32)")
     t.add_argument("--jitter", type=o.nonneg, default=1e-3, help="sd of the gene jitter, rad (default 1e-3)")
-    t.add_argument("--seed", type=o.seed, default=0, help="random seed of the jitter (default 0)")
+    t.add_argument("--seed", type=o.seed, default=0, help="random seed of the jitter and the validation (default 0)")
+    t.add_argument("--pick", choices=("best", "validated"), default="best",
+                   help="which controller of each run: the best score it recorded (default), or the champion of a "
+                        "validation (--candidates, --episodes)")
+    o.validation_options(t)
     t.add_argument("--by", choices=("evaluation", "cell"), default="evaluation",
                    help="summary rows per evaluation mode (default), or per setting of a sweep (its cell folders: "
                         "which GA settings and baselines evolve gaits that carry over)")
@@ -120,11 +126,23 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.out:
         o.check_output_dir(args.out)
     files = transfer.run_files(args.runs)
+    pick, here = None, []
+    if args.pick == "validated":
+        from cpgjax.experiments.validate import validate
+
+        v = o.validation(args)
+
+        def pick(run):
+            champion = validate(run, v)
+            return champion.recorded, champion.genome, champion.to_dict()
+        here.append(f"each run's validated champion ({v.candidates} candidates x {v.episodes} episodes, "
+                    f"seed {v.seed})")
     with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
-                                       dt=args.dt, joint_spring=args.joint_spring, progress=lambda _: bar.update())
+                                       dt=args.dt, joint_spring=args.joint_spring, pick=pick,
+                                       progress=lambda _: bar.update())
     summary = transfer.summary(replays, args.by)
-    here = []
+    summary["pick"] = args.pick
     if args.dt is not None:
         here.append(f"step {args.dt * 1e3:g} ms")
         summary["dt"] = args.dt

@@ -112,6 +112,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--round", action="store_true",
                    help="round to the thesis's 6 decimals (default: exact float32 digits, so that "
                         "`cpgjax simulate` replays the very controller the GA scored)")
+    p.add_argument("--validate", action="store_true",
+                   help="the run's champion by validation instead: its best distinct genomes re-scored over fresh "
+                        "perturbed episodes, the same for each, the highest mean kept (docs/evolution.md)")
+    o.validation_options(p)
+    p.add_argument("--seed", type=o.seed, default=0, help="validation: random seed of its episodes (default 0)")
     p.set_defaults(func=cmd_best)
 
     p = subparsers.add_parser("plot", help="fitness per generation of one or more runs (Fig. 6.5 style)")
@@ -240,11 +245,20 @@ def cmd_best(args: argparse.Namespace) -> int:
     o.check_output_file(args.ctl, "--ctl")
     run = read_run(args.run)
     gen, idx, fit, genome = run.best()
+    if args.validate:
+        from cpgjax.experiments.validate import validate
+
+        v = o.validation(args)
+        ch = validate(run, v)
+        print(f"{args.run}: validated {len(ch.scores)} candidates over {v.episodes} perturbed episodes (seed {v.seed}):"
+              f" the best recorded one ({fit:.6f}) scores {ch.scores[0]:.6f}; the champion scores {ch.score:.6f}")
+        gen, idx, fit, genome = ch.generation, ch.index, ch.recorded, ch.genome
     n_dof, harmonics = int(run.meta.get("n_dof", 0) or 0), int(run.meta.get("harmonics", -1))
     ncoef = 2 * harmonics + 1
     if args.ctl and not (harmonics >= 0 and n_dof * ncoef == genome.size):
         raise ValueError(f"{args.run}: the run does not record n_dof and harmonics: cannot write a .ctl")
-    print(f"{args.run}: best fitness {fit:.6f} at generation {gen}, individual {idx} "
+    what = "champion" if args.validate else "best"
+    print(f"{args.run}: {what} fitness {fit:.6f} at generation {gen}, individual {idx} "
           f"({run.kind}, {run.completed} generations)")
     if harmonics >= 0 and n_dof * ncoef == genome.size:
         coeffs = np.asarray(genome, np.float64).reshape(n_dof, ncoef)

@@ -88,6 +88,21 @@ count0 = int_in(0)                     # pocket sizes, extra controllers
 seed = int_in(0, MAX_SEED)
 
 
+def validation_options(p: argparse.ArgumentParser) -> None:
+    """How a run's champion is validated (``--pick validated``, ``best --validate``; cpgjax.experiments.validate)."""
+    p.add_argument("--candidates", type=count, default=64,
+                   help="validation: the run's best distinct genomes re-scored (default 64)")
+    p.add_argument("--episodes", type=count, default=16,
+                   help="validation: perturbed episodes per candidate, the same for each (default 16)")
+
+
+def validation(args: argparse.Namespace):
+    """The :class:`~cpgjax.experiments.validate.Validation` of parsed ``validation_options`` (``--seed`` too)."""
+    from cpgjax.experiments.validate import Validation
+
+    return Validation(candidates=args.candidates, episodes=args.episodes, seed=args.seed)
+
+
 def list_of(conv: Callable, what: str) -> Callable:
     """A comma list (``0,0.01,0.1``) of ``conv`` values, naming the bad item."""
 

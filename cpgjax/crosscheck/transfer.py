@@ -53,6 +53,7 @@ class Replay:
     mujoco: dict
     ours_jit: dict           # mean, sd, falls over the jittered replays
     mujoco_jit: dict
+    pick: dict | None = None   # how the controller was chosen, when not as the run's best (e.g. validated)
 
     @property
     def ratio(self) -> float:
@@ -65,7 +66,8 @@ class Replay:
 
 
 
-def _setting(run) -> tuple[str, float | None, str | None]:
+def run_setting(run) -> tuple[str, float | None, str | None]:
+    """(evaluation mode as the tables name it, episode length, nominal terrain) of a run: what it was evolved on."""
     cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
     evaluation = str(run.meta.get("evaluation", "thesis"))
     falls = run.meta.get("perturbations") or {}
@@ -105,10 +107,12 @@ def _model(text: str, path: str, terrain, dt=None, joint_spring=None):
 
 
 def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, dt: float | None = None,
-                joint_spring=None, progress=None) -> list[Replay]:
+                joint_spring=None, pick=None, progress=None) -> list[Replay]:
     """Replay the best controller of every run in ``paths`` here and in MuJoCo C (see the module docstring).
 
     ``dt``, ``joint_spring``: replay here with another step or pivot springs (:func:`variant`).
+    ``pick(run) -> (fitness recorded for it, genome, dict saying how it was chosen)`` chooses another controller
+    of each run than its best (``cpgjax transfer --pick validated``: :mod:`cpgjax.experiments.validate`).
     """
     joint_spring = tuple(joint_spring) if joint_spring is not None else None
     out = []
@@ -116,8 +120,12 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         run = read_run(path)
         if run.completed == 0:
             raise ValueError(f"{path}: no generations in the file")
-        _, _, fit, genome = run.best()
-        evaluation, time, terrain = _setting(run)
+        if pick is None:
+            _, _, fit, genome = run.best()
+            how = None
+        else:
+            fit, genome, how = pick(run)
+        evaluation, time, terrain = run_setting(run)
         text = str(run.meta.get("model_text", ""))
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
@@ -129,13 +137,13 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         C = C.astype(np.float32)
         ours = simulate(model, C, time=T)
         mj, _, _ = mujoco_run(model, C, time=T, mj=load(model))
-        pick = lambda r, i: {k: float(np.asarray(r[k])[i]) for k in ("fitness", "speed", "distance")} | {  # noqa: E731
+        first = lambda r, i: {k: float(np.asarray(r[k])[i]) for k in ("fitness", "speed", "distance")} | {  # noqa: E731
             "fallen": bool(np.asarray(r["fallen"])[i])}
         rest = lambda r: {k: np.asarray(r[k])[1:] for k in ("fitness", "speed", "fallen")}  # noqa: E731
         out.append(Replay(run=path, evaluation=evaluation, cell=os.path.basename(os.path.dirname(path)),
                           seed=int(run.config.get("seed", 0)), fitness_in_run=float(fit),
-                          ours=pick(ours, 0), mujoco=pick(mj, 0), ours_jit=_stats(rest(ours)),
-                          mujoco_jit=_stats(rest(mj))))
+                          ours=first(ours, 0), mujoco=first(mj, 0), ours_jit=_stats(rest(ours)),
+                          mujoco_jit=_stats(rest(mj)), pick=how))
         if progress is not None:
             progress(out[-1])
     return out

@@ -99,7 +99,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
         if replicas != 1:
             raise ValueError("replicas (fixed jitter offsets) and the robust evaluation cannot be combined; "
                              "the robust evaluation has its own replicas")
-        return _robust_problem(wl_path, model, robust, T=T, delta=delta, chunk=chunk)
+        return robust_problem(wl_path, model, robust, T=T, delta=delta, chunk=chunk)
 
     desc = model.description
     meta = {
@@ -121,8 +121,8 @@ def base_genome(model) -> np.ndarray:
 METRICS = ("fitness", "diverged", "distance", "speed", "tilt", "fallen")
 
 
-def _robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, chunk: int) -> Problem:
-    """The robust evaluation of a `.wl` model (see :func:`wl_problem`)."""
+def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, chunk: int = 256) -> Problem:
+    """The robust evaluation of a built ``model`` read from ``wl_path`` (see :func:`wl_problem`)."""
     model = model.replace(terrain=roughened(model.terrain, p.roughness))
     n_ctrl, n_coeff, G, R = model.n_ctrl, model.n_coeff, model.n_genes, p.replicas
     lo, hi = -0.8, 0.8

@@ -68,14 +68,14 @@ def test_runs_whose_falls_forfeit_are_a_mode_of_their_own():
         def __init__(self, meta):
             self.meta = meta
     robust = {"evaluation": "robust", "time": 10.0, "perturbations": {"fall_zero": False}}
-    assert transfer._setting(Run(robust))[0] == "robust"
-    assert transfer._setting(Run(robust | {"perturbations": {"fall_zero": True}}))[0] == "robust, a fall forfeits"
+    assert transfer.run_setting(Run(robust))[0] == "robust"
+    assert transfer.run_setting(Run(robust | {"perturbations": {"fall_zero": True}}))[0] == "robust, a fall forfeits"
     survival = robust | {"perturbations": {"fall_survival": True}}
-    assert transfer._setting(Run(survival))[0] == "robust, a fall scales the score"
-    assert transfer._setting(Run({"time": 10.0}))[0] == "thesis"
+    assert transfer.run_setting(Run(survival))[0] == "robust, a fall scales the score"
+    assert transfer.run_setting(Run({"time": 10.0}))[0] == "thesis"
     stiff = robust | {"perturbations": {"fall_survival": True, "bristle": 2.0}}
-    assert transfer._setting(Run(stiff))[0] == "robust, a fall scales the score, bristle up to 10^2"
-    assert transfer._setting(Run(robust | {"perturbations": {"bristle": 0.0}}))[0] == "robust"
+    assert transfer.run_setting(Run(stiff))[0] == "robust, a fall scales the score, bristle up to 10^2"
+    assert transfer.run_setting(Run(robust | {"perturbations": {"bristle": 0.0}}))[0] == "robust"
 
 
 def test_every_evaluation_mode_has_its_summary_row():
