@@ -60,13 +60,13 @@ class Champion:
     recorded: float          # the score the run recorded for it
     score: float             # its mean over the validation episodes
     genome: np.ndarray
-    scores: np.ndarray       # every candidate's validation score, candidates in recorded order
-    recorded_scores: np.ndarray
+    scores: np.ndarray       # every candidate's validation score, best recorded first (scores[0]: the run's best)
+    recorded_scores: np.ndarray  # the scores the run recorded for them, in the same order
     perturbations: dict      # the validation episodes' ranges
 
     def to_dict(self) -> dict:
         return {"generation": self.generation, "index": self.index, "recorded": self.recorded, "score": self.score,
-                "candidates": len(self.scores), "best_recorded_score": float(self.scores[0]),
+                "candidates": len(self.scores), "score_of_run_best": float(self.scores[0]),
                 "perturbations": self.perturbations}
 
 
