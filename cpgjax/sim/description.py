@@ -153,6 +153,11 @@ class Description:
     logs: list[LogDef] = field(default_factory=list)
     harmonics: int = 2  # K of the CPG Fourier series
     frequency: float = 0.5  # f0 [Hz]
+    # which physics pipeline runs the model (``Pipeline springs|exact``; None: the command's, else "springs"):
+    # "springs" is the thesis's (every body free, joints as pivot springs, eq. 3.6, `sim.step`);
+    # "exact" is generalized coordinates (a floating base and one angle per revolute joint, `sim.articulated`)
+    pipeline: str | None = None
+    pipeline_line: int = 0
 
     @property
     def n_controlled(self) -> int:

@@ -27,6 +27,8 @@ from cpgjax.sim.terrain import Terrain, make_terrain
 
 # Defaults chosen by the time-step study (docs/simulator.md).
 DEFAULT_DT = 5.0e-4
+PIPELINES = ("springs", "exact")  # the thesis's pivot springs (eq. 3.6); exact joints (generalized coordinates)
+DEFAULT_DT_EXACT = 2.0e-3  # the exact-joint pipeline's step (MuJoCo's default; docs/simulator.md)
 DEFAULT_ALPHA = 3.0e5  # N/m   joint pivot spring (eq. 3.6)
 DEFAULT_BETA = 300.0  # N s/m joint pivot damper (eq. 3.6)
 # The friction bristle (sim.contact): soft, so that a walking robot's score is not chaotic; a stiffer one
@@ -102,6 +104,7 @@ class Model:
     description: Description | None = field(default=None, repr=False)
     limit_k: float = LIMIT_STIFFNESS
     limit_c: float = LIMIT_DAMPING
+    pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.step.step` dispatches)
 
     @property
     def nb(self) -> int:
@@ -200,9 +203,15 @@ def _check_body(path: str, desc: Description, kind: str, name: str, mass: float,
                                            "and Dimensions")
 
 
-def build_model(desc: Description, *, dt: float | None = None, terrain: str | None = None) -> Model:
-    """Turn a Description into a Model.  ``terrain`` (CLI syntax) overrides the file's."""
+def build_model(desc: Description, *, dt: float | None = None, terrain: str | None = None,
+                pipeline: str | None = None) -> Model:
+    """Turn a Description into a Model.  ``terrain`` (CLI syntax) overrides the file's; ``pipeline``
+    ("springs" or "exact", see :data:`PIPELINES`) the file's ``Pipeline`` (default "springs")."""
     path = desc.path
+    pipe = pipeline or desc.pipeline or "springs"
+    if pipe not in PIPELINES:
+        raise DescriptionError(path, desc.pipeline_line if pipeline is None else 0,
+                               f"unknown pipeline {pipe!r}: choose one of {', '.join(PIPELINES)}")
     # -- bodies: root objects and compounds, in file order
     in_compound = {o for c in desc.compounds.values() for o in c.objects}
     entries = [(o.line, "object", o.name) for o in desc.objects.values() if o.name not in in_compound]
@@ -374,8 +383,8 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         mu_static=float(desc.friction),
         mu_dynamic=float(desc.friction_dynamic if desc.friction_dynamic is not None else desc.friction),
         alpha=float(alpha), beta=float(beta), friction_k=float(friction_k), friction_b=float(friction_b),
-        dt=float(dt or desc.time_step or DEFAULT_DT),
+        dt=float(dt or desc.time_step or (DEFAULT_DT_EXACT if pipe == "exact" else DEFAULT_DT)),
         terrain=make_terrain(terrain) if terrain else make_terrain(tdef),
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
-        harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc,
+        harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,
     )

@@ -427,9 +427,11 @@ def load_wl(path: str | os.PathLike[str]) -> Description:
     return parse_wl(text, p)
 
 
-def load_model(path: str | os.PathLike[str], *, dt: float | None = None, terrain: str | None = None) -> Model:
-    """Parse a `.wl` file and build its simulator Model (``build_model(load_wl(path), dt=, terrain=)``).
+def load_model(path: str | os.PathLike[str], *, dt: float | None = None, terrain: str | None = None,
+               pipeline: str | None = None) -> Model:
+    """Parse a `.wl` file and build its simulator Model (``build_model(load_wl(path), dt=, terrain=, pipeline=)``).
 
-    ``terrain`` is command-line text (``bump:0.02@1.0``) that overrides the file's ``Terrain``.
+    ``terrain`` is command-line text (``bump:0.02@1.0``) that overrides the file's ``Terrain``;
+    ``pipeline`` ("springs" | "exact") overrides the file's ``Pipeline``.
     """
-    return build_model(load_wl(path), dt=dt, terrain=terrain)
+    return build_model(load_wl(path), dt=dt, terrain=terrain, pipeline=pipeline)
