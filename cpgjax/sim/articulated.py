@@ -7,560 +7,625 @@ damper and friction bristle (`sim.contact.contact_law`, shared), terrain and `Va
 robot by a floating base and one angle per revolute joint (`sim.tree`), so that the joints hold exactly:
 
 1. the joint-space inertia ``M`` by the composite-rigid-body algorithm, in world axes about each tree root's
-   CM, and its ``M = L^T D L`` factorization, which keeps the tree's sparsity (no fill-in: MuJoCo's
+   CM, and its ``M = L^T D L`` factorization, which keeps the tree's sparsity (no fill-in, as MuJoCo's
    ``mj_factorM``);
-2. the bias forces ``C`` (gravity, Coriolis, gyroscopic) by recursive Newton-Euler with zero joint accelerations;
+2. the bias forces (gravity, Coriolis, gyroscopic) by recursive Newton-Euler with zero joint accelerations;
 3. ``M qdd = tau - C + J^T f_prev``: the servo's PI torque, the joint limits and every contact's force of the
    previous step (the warm start); the servo's derivative, implicit on its joint's exact inverse inertia
    ``(M^-1)_jj``; then each contact vertex's force from the contact law against the vertex's real inverse mass
-   ``K_c = J_c M^-1 J_c^T``, scaled for the vertices that push at once (below), and the change of the forces
-   added to ``qdd``;
-4. semi-implicit Euler on the generalized velocities and positions, and forward kinematics for the bodies'
+   ``K_c = J_c M^-1 J_c^T``, and the change of the forces added to ``qdd``;
+4. semi-implicit Euler on the generalized velocities and positions, then forward kinematics for the bodies'
    poses and velocities (``State.x, q, v, w``: what the rest of cpgjax reads, as from the other pipeline).
 
 The vertices are solved one by one (a Jacobi step from the previous step's forces).  So that vertices pushing
 together cannot overshoot, each vertex's inverse mass is scaled by ``s_c = max(1, sum_j K_cj / K_cc)`` over the
-touching vertices ``j`` (normal components): the response of the vertex when every touching vertex pushes at
-once, one solve for all; for the vertices of one free body this is the other pipeline's count of touching
-vertices.
+touching vertices ``j`` (normal components): how much faster the vertex moves when every touching vertex pushes
+at once than when it pushes alone (one solve for all); for the vertices of one free body this is the other
+pipeline's count of touching vertices.
 
-Arrays are batch-last; the structure (which DOF moves which body, the zeros of the root block) is static,
-so the step is straight-line code over ``[B]`` arrays that XLA fuses.
+Why levels: every algorithm here walks the tree, and the bodies at one depth (the four hips, the four knees)
+are independent of each other.  Each depth is one set of ``[n_l, B]`` array operations (`sim.tree.Levels`), so
+the program's size grows with the tree's depth, not with its number of bodies: XLA compiles it in seconds and
+runs it as a few wide loops.  Sums over a body's children use static slots in a fixed order, so a robot's
+result does not depend on the batch it is in.
 """
 
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 
 from cpgjax.sim.contact import contact_frame, contact_law
 from cpgjax.sim.joints import limit_torques
-from cpgjax.sim.rotation import quat_integrate, quat_to_mat
+from cpgjax.sim.rotation import cross, dot, quat_integrate, quat_to_mat
 from cpgjax.sim.servo import servo_pi, servo_torques
 
 # ---------------------------------------------------------------------------------------------------------
-# 3-vectors as tuples of [B] arrays (or the Python float 0.0 for a structural zero: no operation is emitted)
+# static helpers on the item axis (the one before the batch axis)
 
 
-def _z(a):
-    return isinstance(a, float) and a == 0.0
+def take(x, idx):
+    """``x[..., idx, :]`` for static indices (a no-op for the identity)."""
+    idx = np.asarray(idx)
+    if idx.shape[0] == x.shape[-2] and np.array_equal(idx, np.arange(idx.shape[0])):
+        return x
+    if len(idx) == 1:
+        return x[..., int(idx[0]):int(idx[0]) + 1, :]
+    return jnp.take(x, idx, axis=-2)
 
 
-def _add(a, b):
-    return b if _z(a) else a if _z(b) else a + b
+def gather_sum(x, slots):
+    """``out[..., i, :] = sum_s x[..., slots[s, i], :]`` over the valid slots (static, -1 padded), in slot order."""
+    out = None
+    for row in slots:
+        valid = row >= 0
+        if not valid.any():
+            continue
+        t = take(x, np.maximum(row, 0))
+        if not valid.all():
+            t = t * valid.astype(np.float32)[:, None]
+        out = t if out is None else out + t
+    if out is None:
+        return jnp.zeros(x.shape[:-2] + (slots.shape[1], x.shape[-1]), x.dtype)
+    return out
 
 
-def _sub(a, b):
-    return a if _z(b) else (-b if _z(a) else a - b)
-
-
-def _mul(a, b):
-    if _z(a) or _z(b):
-        return 0.0
-    if isinstance(a, float) and a in (1.0, -1.0):
-        return b if a == 1.0 else -b
-    if isinstance(b, float) and b in (1.0, -1.0):
-        return a if b == 1.0 else -a
-    return a * b
-
-
-def vadd(a, b):
-    return tuple(_add(x, y) for x, y in zip(a, b, strict=True))
-
-
-def vsub(a, b):
-    return tuple(_sub(x, y) for x, y in zip(a, b, strict=True))
-
-
-def vscale(s, a):
-    return tuple(_mul(s, x) for x in a)
-
-
-def vdot(a, b):
+def rot_const(R, r):
+    """``R @ r`` for R [3, 3, n, B] and constant vectors r [3, n] (components zero for every item skipped)."""
     out = 0.0
-    for x, y in zip(a, b, strict=True):
-        out = _add(out, _mul(x, y))
-    return out
-
-
-def vcross(a, b):
-    return (_sub(_mul(a[1], b[2]), _mul(a[2], b[1])), _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
-            _sub(_mul(a[0], b[1]), _mul(a[1], b[0])))
-
-
-def mvec(m, v):
-    return tuple(vdot(row, v) for row in m)
-
-
-def rvec_const(R, r):
-    """R @ r for R [3, 3, B] and a constant vector r (its zero components skipped)."""
-    out = [0.0, 0.0, 0.0]
     for j in range(3):
-        if r[j] != 0.0:
-            for i in range(3):
-                out[i] = _add(out[i], R[i, j] * float(r[j]))
-    return tuple(out)
+        if np.any(r[j]):
+            out = out + R[:, j] * jnp.asarray(r[j], R.dtype)[:, None]
+    return out if not isinstance(out, float) else jnp.zeros(R.shape[:1] + R.shape[2:], R.dtype)
 
 
-def _col(R, j):
-    return (R[0, j], R[1, j], R[2, j])
-
-
-def _vec(a):
-    return (a[0], a[1], a[2])
-
-
-def _world_inertia(R, I):
-    """R I R^T [3x3 tuple of [B]] for a constant symmetric I (its zeros skipped)."""
-    out = [[0.0] * 3 for _ in range(3)]
-    for i in range(3):
-        for j in range(i, 3):
-            acc = 0.0
-            for k in range(3):
-                for m in range(3):
-                    if I[k, m] != 0.0:
-                        acc = _add(acc, R[i, k] * R[j, m] * float(I[k, m]))
-            out[i][j] = out[j][i] = acc
+def column(R, axis_index):
+    """Column ``axis_index[i]`` of each item's R [3, 3, n, B]."""
+    ai = np.asarray(axis_index)
+    if (ai == ai[0]).all():
+        return R[:, int(ai[0])]
+    out = 0.0
+    for j in range(3):
+        if (ai == j).any():
+            out = out + R[:, j] * jnp.asarray((ai == j).astype(np.float32), R.dtype)[:, None]
     return out
 
 
-# ---------------------------------------------------------------------------------------------------------
-# M = L^T D L with the tree's sparsity (MuJoCo's mj_factorM / mj_solveM)
+def world_inertia(R, inertia):
+    """``R I R^T`` [3, 3, n, B] for constant body-frame inertias [3, 3, n]."""
+    RI = [[rot_const_row(R, i, inertia[:, l]) for l in range(3)] for i in range(3)]
+    return jnp.stack([jnp.stack([RI[i][0] * R[j, 0] + RI[i][1] * R[j, 1] + RI[i][2] * R[j, 2] for j in range(3)])
+                      for i in range(3)])
 
 
-def factor(tree, M):
-    """``M = L^T D L`` of a dict ``M[(k, i)]`` (i = k or an ancestor of k): returns ``(L, Dinv)``.
-
-    ``L[(k, i)]`` for each ancestor i of k; ``Dinv[k] = 1 / D_k``.  Eliminating from the last DOF up, a DOF's
-    row only updates its ancestors' entries: no fill-in.
-    """
-    M = dict(M)
-    L, Dinv = {}, {}
-    for k in reversed(range(tree.nv)):
-        anc = tree.ancestors(k)
-        Dinv[k] = 1.0 / M[(k, k)]
-        row = {i: M.get((k, i), 0.0) for i in anc}
-        for i in anc:
-            L[(k, i)] = _mul(row[i], Dinv[k])
-        for n, i in enumerate(anc):             # i and j both above k: j is i or above i
-            if _z(L[(k, i)]):
-                continue
-            for j in anc[n:]:
-                if not _z(row[j]):
-                    M[(i, j)] = _sub(M.get((i, j), 0.0), L[(k, i)] * row[j])
-    return L, Dinv
+def rot_const_row(R, i, col):
+    """``(R @ c)[i]`` for constant vectors c [3, n]."""
+    out = 0.0
+    for k in range(3):
+        if np.any(col[k]):
+            out = out + R[i, k] * jnp.asarray(col[k], R.dtype)[:, None]
+    return out if not isinstance(out, float) else jnp.zeros(R.shape[2:], R.dtype)
 
 
-def solve(tree, L, Dinv, b):
-    """``M^-1 b`` for a dense right-hand side ``b`` (a list of [B] arrays or 0.0 over the DOFs)."""
-    y = list(b)
-    for k in reversed(range(tree.nv)):          # L^T y = b: from the leaves up
-        if _z(y[k]):
-            continue
-        for i in tree.ancestors(k):
-            y[i] = _sub(y[i], _mul(L[(k, i)], y[k]))
-    x = [_mul(y[k], Dinv[k]) for k in range(tree.nv)]
-    for k in range(tree.nv):                    # L x = D^-1 y: from the root down
-        for i in tree.ancestors(k):
-            x[k] = _sub(x[k], _mul(L[(k, i)], x[i]))
-    return x
-
-
-def half_solve(tree, L, path, b):
-    """``y = L^-T b`` for ``b`` supported on ``path`` (a DOF and its ancestors, nearest first): ``y`` is too, so
-    that ``b^T M^-1 b' = sum_i y_i y'_i / D_i``.  ``b``: a dict DOF -> [B] array (missing: zero)."""
-    y = {d: b.get(d, 0.0) for d in path}
-    for k in path:                              # nearest first = descending DOF index
-        if _z(y[k]):
-            continue
-        for i in tree.ancestors(k):
-            y[i] = _sub(y[i], _mul(L[(k, i)], y[k]))
-    return y
+def _skew_T_times(h):
+    """The 3x3 block ``[h]x`` as nested lists of [n, B] (rows)."""
+    z = jnp.zeros_like(h[0])
+    return [[z, -h[2], h[1]], [h[2], z, -h[0]], [-h[1], h[0], z]]
 
 
 # ---------------------------------------------------------------------------------------------------------
 # kinematics
 
 
-class _Kin:
-    """The bodies' rotations, positions (from their tree root's CM), velocities, joint axes and pivots."""
+class Kin:
+    """Per level: rotations, positions from the tree root's CM, velocities, joint axes and pivots."""
 
-    def __init__(self, model, state):
-        tree = model.tree
-        self.R = quat_to_mat(state.q)                              # [3, 3, nb, B]
-        self.O = {r: _vec(state.x[:, r]) for r in tree.roots}
-        self.d, self.w, self.v = {}, {}, {}
-        for b in tree.order:
-            r = tree.root[b]
-            self.d[b] = (0.0, 0.0, 0.0) if b == r else vsub(_vec(state.x[:, b]), self.O[r])
-            self.w[b] = _vec(state.w[:, b])
-            self.v[b] = _vec(state.v[:, b])
-        self.axis, self.pivot = {}, {}
-        for b in tree.order:
-            k = tree.joint[b]
-            if k < 0:
+    def __init__(self, model, x, q, v, w):
+        lv = model.levels
+        self.lv = lv
+        self.R_all = quat_to_mat(q)                                  # [3, 3, nb, B]
+        self.O = x[:, lv.bodies[0]]                                  # [3, n0, B] the roots' CMs
+        root_item = np.array([lv.item_of[model.tree.root[b]] for b in range(model.nb)])
+        self.d_all = x - take(self.O, root_item)                     # [3, nb, B]
+        self.R, self.d, self.W, self.V, self.a, self.p = [], [], [], [], [], []
+        for lvl, bs in enumerate(lv.bodies):
+            self.R.append(take(self.R_all, bs))
+            self.d.append(take(self.d_all, bs))
+            self.W.append(take(w, bs))
+            self.V.append(take(v, bs))
+            if lvl == 0:
+                self.a.append(None)
+                self.p.append(None)
                 continue
-            a = tree.parent[b]
-            Ra = self.R[:, :, a]
-            self.axis[k] = _col(Ra, tree.axis_index[k])
-            self.pivot[k] = vadd(self.d[a], rvec_const(Ra, tree.r_parent[:, k]))
+            Rp = take(self.R[lvl - 1], lv.parent[lvl])
+            self.a.append(column(Rp, lv.axis_index[lvl]))
+            self.p.append(take(self.d[lvl - 1], lv.parent[lvl]) + rot_const(Rp, lv.r_parent[lvl]))
 
 
-def _masses(model, var):
-    """Each body's mass [B] (or a float) and its inertia scale (None: nominal)."""
-    if var is None:
-        return [float(m) for m in model.mass], None
-    return [float(model.mass[b]) * var.mass[b] for b in range(model.nb)], var.mass
+def _masses(model, var, lv):
+    """Per level: masses [n, 1|B] and body-frame inertias [3, 3, n] (and their scale [n, B] or None)."""
+    m, inertia, scale = [], [], []
+    for bs in lv.bodies:
+        mm = jnp.asarray(model.mass[bs], jnp.float32)[:, None]
+        s = None if var is None else take(var.mass, bs)
+        m.append(mm if s is None else mm * s)
+        inertia.append(model.inertia[:, :, bs])
+        scale.append(s)
+    return m, inertia, scale
 
 
 # ---------------------------------------------------------------------------------------------------------
-# the step
+# M = L^T D L, level by level (the deepest first): a DOF's row only updates its ancestors' entries
 
 
-def mass_matrix(model, kin, var=None):
-    """Joint-space inertia ``M[(k, i)]`` (composite-rigid-body algorithm, about each tree root's CM)."""
-    tree = model.tree
-    m, s = _masses(model, var)
-    mc, hc, Ic, Iw = {}, {}, {}, {}
-    for b in tree.order:
-        Ib = _world_inertia(kin.R[:, :, b], model.inertia[:, :, b])
-        if s is not None:
-            Ib = [[_mul(x, s[b]) for x in row] for row in Ib]
-        Iw[b] = Ib
-        d = kin.d[b]
-        dd = vdot(d, d)
-        IO = [[_add(Ib[i][j], _mul(m[b], _sub(dd if i == j else 0.0, _mul(d[i], d[j])))) for j in range(3)]
-              for i in range(3)]
-        mc[b], hc[b], Ic[b] = m[b], vscale(m[b], d), IO
-    for b in reversed(tree.order):              # composite inertias: children into parents
-        a = tree.parent[b]
-        if a >= 0:
-            mc[a] = _add(mc[a], mc[b])
-            hc[a] = vadd(hc[a], hc[b])
-            Ic[a] = [[_add(Ic[a][i][j], Ic[b][i][j]) for j in range(3)] for i in range(3)]
-    M = {}
-    for b in tree.order:
-        k = tree.joint[b]
-        if k < 0:
-            if tree.free_root[b]:
-                f = tree.root_dof[b]
-                h = hc[b]
-                hx = ((0.0, -h[2], h[1]), (h[2], 0.0, -h[0]), (-h[1], h[0], 0.0))
-                for i in range(3):
-                    for j in range(i + 1):
-                        M[(f + i, f + j)] = mc[b] if i == j else 0.0
-                        M[(f + 3 + i, f + 3 + j)] = Ic[b][i][j]
-                    for j in range(3):
-                        M[(f + 3 + i, f + j)] = hx[i][j]
-            continue
-        dof = tree.joint_dof[k]
-        a, p = kin.axis[k], kin.pivot[k]
-        pa = vcross(p, a)
-        H = vadd(mvec(Ic[b], a), vcross(hc[b], pa))
-        Lm = vsub(vscale(mc[b], pa), vcross(hc[b], a))
-        M[(dof, dof)] = _add(vdot(a, H), vdot(pa, Lm))
-        for i in tree.ancestors(dof):
-            M[(dof, i)] = _row(tree, kin, i, H, Lm)
-    return M, (m, Iw)
+class Factor:
+    """The factorization of the joint-space inertia, in the levels' layout.
+
+    Joint DOFs: ``Dinv[l]`` [n_l, B]; ``La[l][a]`` [n_l, B] to the level-a ancestor (1 <= a < l); ``Lr[l]``
+    [6, n_l, B] to the root's six.  Root DOFs (per root, a chain of six): ``Dr`` [6, n0, B], ``Lrr[k][i]`` (i < k).
+    """
+
+    def __init__(self, model, M):
+        lv = model.levels
+        D = lv.depth
+        Md, Ma, Mr = dict(M["d"]), {k: dict(v) for k, v in M["a"].items()}, dict(M["r"])
+        root = M["root"]
+        Mroot = {(i, j): root[i, j] for i in range(6) for j in range(6)}
+        self.Dinv, self.La, self.Lr = {}, {}, {}
+        for lvl in range(D, 0, -1):
+            dinv = 1.0 / Md[lvl]
+            self.Dinv[lvl] = dinv
+            self.La[lvl] = {a: Ma[lvl][a] * dinv for a in range(1, lvl)}
+            self.Lr[lvl] = Mr[lvl] * dinv
+            for a in range(1, lvl):             # the level-a ancestor's diagonal, its row to its own ancestors
+                slots = lv.below[lvl][a]
+                La = self.La[lvl][a]
+                Md[a] = Md[a] - gather_sum(La * Ma[lvl][a], slots)
+                for a2 in range(1, a):
+                    Ma[a][a2] = Ma[a][a2] - gather_sum(La * Ma[lvl][a2], slots)
+                Mr[a] = Mr[a] - gather_sum(La[None] * Mr[lvl], slots)
+            upd = gather_sum(self.Lr[lvl][:, None] * Mr[lvl][None], lv.below[lvl][0])   # [6, 6, n0, B]
+            for i in range(6):
+                for j in range(6):
+                    Mroot[(i, j)] = Mroot[(i, j)] - upd[i, j]
+        self.Dr, self.Lrr = [None] * 6, {}
+        for k in range(5, -1, -1):              # the root's dense 6x6 block: a chain of six DOFs
+            self.Dr[k] = 1.0 / Mroot[(k, k)]
+            for i in range(k):
+                self.Lrr[(k, i)] = Mroot[(k, i)] * self.Dr[k]
+            for i in range(k):
+                for j in range(i + 1):
+                    Mroot[(i, j)] = Mroot[(i, j)] - self.Lrr[(k, i)] * Mroot[(k, j)]
+        self.Dr = jnp.stack(self.Dr)
+        self.lv = lv
+
+    def solve(self, b):
+        """``M^-1 b`` for ``b = {0: [6, n0, B], l: [n_l, B]}`` (missing levels: zero)."""
+        lv, D = self.lv, self.lv.depth
+        y = {lvl: b.get(lvl) for lvl in range(1, D + 1)}
+        yr = b.get(0)
+        for lvl in range(D, 0, -1):             # L^T y = b, from the leaves up
+            if y[lvl] is None:
+                continue
+            for a in range(1, lvl):
+                add = gather_sum(self.La[lvl][a] * y[lvl], lv.below[lvl][a])
+                y[a] = -add if y[a] is None else y[a] - add
+            add = gather_sum(self.Lr[lvl] * y[lvl][None], lv.below[lvl][0])
+            yr = -add if yr is None else yr - add
+        if yr is None:
+            n0 = len(lv.bodies[0])
+            some = next(v for v in y.values() if v is not None)
+            yr = jnp.zeros((6, n0, some.shape[-1]), some.dtype)
+        yr = [yr[i] for i in range(6)]
+        for k in range(5, -1, -1):
+            for i in range(k):
+                yr[i] = yr[i] - self.Lrr[(k, i)] * yr[k]
+        xr = [None] * 6
+        for k in range(6):                      # L x = D^-1 y, from the root down
+            xk = yr[k] * self.Dr[k]
+            for i in range(k):
+                xk = xk - self.Lrr[(k, i)] * xr[i]
+            xr[k] = xk
+        x = {0: jnp.stack(xr)}
+        for lvl in range(1, D + 1):
+            xl = y[lvl] * self.Dinv[lvl] if y[lvl] is not None else 0.0
+            for a in range(1, lvl):
+                xl = xl - self.La[lvl][a] * take(x[a], lv.anc[lvl][a])
+            xl = xl - jnp.sum(self.Lr[lvl] * take(x[0], lv.anc[lvl][0]), axis=0)
+            x[lvl] = xl
+        return x
+
+    def half_solve(self, lvl, items, b, br):
+        """``y = L^-T J^T`` for rows ``J^T`` supported on the path of level-``lvl`` bodies ``items``: ``b[a]`` [n, B]
+        on the path's joint DOFs (a = 1..lvl), ``br`` [6, n, B] on the root's.  Returns (y, yr) on the same path,
+        so that ``J M^-1 J'^T = sum y y' / D``."""
+        lv = self.lv
+        anc = {a: (lv.anc[lvl][a][items] if a < lvl else np.asarray(items)) for a in range(lvl + 1)}
+        y = {}
+        for a in range(lvl, 0, -1):
+            ya = b.get(a, 0.0)
+            for a2 in range(a + 1, lvl + 1):
+                ya = ya - take(self.La[a2][a], anc[a2]) * y[a2]
+            y[a] = ya
+        yr = br if br is not None else 0.0
+        for a in range(1, lvl + 1):
+            yr = yr - take(self.Lr[a], anc[a]) * y[a][None]
+        yr = [yr[i] for i in range(6)]
+        for k in range(5, -1, -1):
+            for i in range(k):
+                yr[i] = yr[i] - take(self.Lrr[(k, i)], anc[0]) * yr[k]
+        return y, jnp.stack(yr), anc
+
+    def kdot(self, ya, yb, anc):
+        """``sum_i ya_i yb_i / D_i`` over a path (see :meth:`half_solve`)."""
+        out = jnp.sum(ya[1] * yb[1] * take(self.Dr, anc[0]), axis=0)
+        for a in ya[0]:
+            out = out + ya[0][a] * yb[0][a] * take(self.Dinv[a], anc[a])
+        return out
 
 
-def _dof_kind(tree, i):
-    """('lin'|'ang', component, root body) for a floating-base DOF, ('joint', k, None) for a joint's."""
-    for b in tree.roots:
-        f = tree.root_dof[b]
-        if f >= 0 and f <= i < f + 6:
-            return ("lin", i - f, b) if i < f + 3 else ("ang", i - f - 3, b)
-    return ("joint", tree.joint_dof.index(i), None)
+# ---------------------------------------------------------------------------------------------------------
+# the dynamics
 
 
-def _row(tree, kin, i, H, Lm):
-    """``S_i . (H, L)``: the DOF i's component of a spatial force (H about the root's CM, L)."""
-    kind, c, _ = _dof_kind(tree, i)
-    if kind == "lin":
-        return Lm[c]
-    if kind == "ang":
-        return H[c]
-    a, p = kin.axis[c], kin.pivot[c]
-    return _add(vdot(a, H), vdot(vcross(p, a), Lm))
+def mass_matrix(model, kin, masses):
+    """Joint-space inertia in the levels' layout (composite-rigid-body algorithm, about each root's CM)."""
+    lv = model.levels
+    D = lv.depth
+    m, inertia, scale = masses
+    mc, hc, Ic, Iw = [], [], [], []
+    for lvl in range(D + 1):
+        I = world_inertia(kin.R[lvl], inertia[lvl])
+        if scale[lvl] is not None:
+            I = I * scale[lvl]
+        Iw.append(I)
+        d = kin.d[lvl]
+        dd = dot(d, d)
+        outer = d[:, None] * d[None]
+        eye = jnp.eye(3, dtype=d.dtype)[:, :, None, None]
+        mc.append(jnp.broadcast_to(m[lvl], d.shape[1:]))
+        hc.append(m[lvl] * d)
+        Ic.append(I + m[lvl] * (eye * dd - outer))
+    for lvl in range(D, 0, -1):                # composite inertias: children into parents
+        slots = lv.below[lvl][lvl - 1]
+        mc[lvl - 1] = mc[lvl - 1] + gather_sum(mc[lvl], slots)
+        hc[lvl - 1] = hc[lvl - 1] + gather_sum(hc[lvl], slots)
+        Ic[lvl - 1] = Ic[lvl - 1] + gather_sum(Ic[lvl], slots)
+    M = {"d": {}, "a": {}, "r": {}}
+    free = lv.free
+    for lvl in range(1, D + 1):
+        a, p = kin.a[lvl], kin.p[lvl]
+        pa = cross(p, a)
+        H = _mv(Ic[lvl], a) + cross(hc[lvl], pa)
+        Lm = mc[lvl] * pa - cross(hc[lvl], a)
+        M["d"][lvl] = dot(a, H) + dot(pa, Lm)
+        M["a"][lvl] = {}
+        for a2 in range(1, lvl):
+            anc = lv.anc[lvl][a2]
+            M["a"][lvl][a2] = dot(take(kin.a[a2], anc), H) + dot(take(cross(kin.p[a2], kin.a[a2]), anc), Lm)
+        rows = jnp.concatenate([Lm, H])                                  # [6, n, B]: (lin, ang) root DOFs
+        fmask = free[lv.anc[lvl][0]]
+        M["r"][lvl] = rows if fmask.all() else rows * fmask.astype(np.float32)[:, None]
+    h = hc[0]
+    hx = _skew_T_times(h)
+    z = jnp.zeros_like(h[0])
+    top = [[mc[0] if i == j else z for j in range(3)] + [-hx[i][j] for j in range(3)] for i in range(3)]
+    bot = [[hx[i][j] for j in range(3)] + [Ic[0][i, j] for j in range(3)] for i in range(3)]
+    root = jnp.stack([jnp.stack(r) for r in top + bot])                 # [6, 6, n0, B]
+    if not free.all():                          # a fixed root: identity, so that its DOFs stay at rest
+        f = free.astype(np.float32)[:, None]
+        root = root * f + jnp.eye(6, dtype=root.dtype)[:, :, None, None] * (1.0 - f)
+    M["root"] = root
+    return M, Iw
 
 
-def bias_forces(model, kin, inertia, gv):
-    """``C`` over the DOFs: gravity, Coriolis and gyroscopic forces (recursive Newton-Euler, zero ``qdd``)."""
-    tree = model.tree
-    m, Iw = inertia
-    g = model.gravity
-    lin, ang, F, N = {}, {}, {}, {}
-    for b in tree.order:
-        k = tree.joint[b]
-        if k < 0:
-            lin[b], ang[b] = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+def _mv(I, a):
+    return jnp.stack([I[i, 0] * a[0] + I[i, 1] * a[1] + I[i, 2] * a[2] for i in range(3)])
+
+
+def project(model, kin, F, N):
+    """Generalized forces of body wrenches: ``F[l]``, ``N[l]`` [3, n_l, B] (N about the root's CM) summed over
+    each subtree and projected on its DOFs (the backward pass of recursive Newton-Euler)."""
+    lv = model.levels
+    F, N = list(F), list(N)
+    for lvl in range(lv.depth, 0, -1):
+        slots = lv.below[lvl][lvl - 1]
+        F[lvl - 1] = F[lvl - 1] + gather_sum(F[lvl], slots)
+        N[lvl - 1] = N[lvl - 1] + gather_sum(N[lvl], slots)
+    tau = {0: jnp.concatenate([F[0], N[0]]) * lv.free.astype(np.float32)[:, None]}
+    for lvl in range(1, lv.depth + 1):
+        tau[lvl] = dot(kin.a[lvl], N[lvl] - cross(kin.p[lvl], F[lvl]))
+    return tau
+
+
+def inertial_wrenches(model, kin, masses, Iw, rates):
+    """Each body's wrench of gravity and its velocity-product accelerations (``qdd = 0``): ``F = m (a_vp - g)``,
+    ``N = I alpha_vp + w x I w + d x F`` about the root's CM (the forward pass of recursive Newton-Euler)."""
+    lv = model.levels
+    m = masses[0]
+    lin, ang, F, N = [], [], [], []
+    g = jnp.asarray([0.0, 0.0, model.gravity], jnp.float32)[:, None, None]
+    for lvl in range(lv.depth + 1):
+        W = kin.W[lvl]
+        if lvl == 0:
+            ang.append(jnp.zeros_like(W))
+            lin.append(jnp.zeros_like(W))
         else:
-            a = tree.parent[b]
-            ax, p = kin.axis[k], kin.pivot[k]
-            rate = _mul(float(tree.sign[k]), gv[k])
-            ang[b] = vadd(ang[a], vscale(rate, vcross(kin.w[a], ax)))
-            rp = vsub(p, kin.d[a])
-            ap = vadd(vadd(lin[a], vcross(ang[a], rp)), vcross(kin.w[a], vcross(kin.w[a], rp)))
-            rb = vsub(kin.d[b], p)
-            lin[b] = vadd(vadd(ap, vcross(ang[b], rb)), vcross(kin.w[b], vcross(kin.w[b], rb)))
-        f = vscale(m[b], vadd(lin[b], (0.0, 0.0, g)))
-        Iwb = Iw[b]
-        n = vadd(mvec(Iwb, ang[b]), vcross(kin.w[b], mvec(Iwb, kin.w[b])))
-        F[b], N[b] = f, vadd(n, vcross(kin.d[b], f))
-    for b in reversed(tree.order):
-        a = tree.parent[b]
-        if a >= 0:
-            F[a], N[a] = vadd(F[a], F[b]), vadd(N[a], N[b])
-    C = [0.0] * tree.nv
-    for b in tree.order:
-        k = tree.joint[b]
-        if k < 0:
-            if tree.free_root[b]:
-                f = tree.root_dof[b]
-                for c in range(3):
-                    C[f + c], C[f + 3 + c] = F[b][c], N[b][c]
-        else:
-            ax, p = kin.axis[k], kin.pivot[k]
-            C[tree.joint_dof[k]] = vdot(ax, vsub(N[b], vcross(p, F[b])))
-    return C
+            par = lv.parent[lvl]
+            Wp, angp, linp, dp = take(kin.W[lvl - 1], par), take(ang[lvl - 1], par), take(lin[lvl - 1], par), \
+                take(kin.d[lvl - 1], par)
+            a, p = kin.a[lvl], kin.p[lvl]
+            ang.append(angp + rates[lvl] * cross(Wp, a))
+            rp = p - dp
+            ap = linp + cross(angp, rp) + cross(Wp, cross(Wp, rp))
+            rb = kin.d[lvl] - p
+            lin.append(ap + cross(ang[lvl], rb) + cross(W, cross(W, rb)))
+        f = m[lvl] * (lin[lvl] + g)
+        n = _mv(Iw[lvl], ang[lvl]) + cross(W, _mv(Iw[lvl], W))
+        F.append(f)
+        N.append(n + cross(kin.d[lvl], f))
+    return F, N
 
 
-def _point_jacobian_T(tree, kin, body, p, f):
-    """``J^T f`` as a dict DOF -> [B]: the generalized force of a world force f at p (from the root's CM)."""
-    out, pf = {}, None
-    for i in tree.path(body):
-        kind, c, _ = _dof_kind(tree, i)
-        if kind == "lin":
-            out[i] = f[c]
-        elif kind == "ang":
-            pf = vcross(p, f) if pf is None else pf
-            out[i] = pf[c]
-        else:
-            out[i] = vdot(kin.axis[c], vcross(vsub(p, kin.pivot[c]), f))
-    return out
+def body_velocities(model, kin, u):
+    """Angular and CM velocities [3, nb, B] of every body for generalized velocities ``u`` (levels' layout)."""
+    lv = model.levels
+    W, V = [u[0][3:6]], [u[0][0:3]]
+    for lvl in range(1, lv.depth + 1):
+        par = lv.parent[lvl]
+        Wp, Vp, dp = take(W[lvl - 1], par), take(V[lvl - 1], par), take(kin.d[lvl - 1], par)
+        a, p = kin.a[lvl], kin.p[lvl]
+        W.append(Wp + u[lvl] * a)
+        V.append(Vp + cross(Wp, p - dp) + cross(W[lvl], kin.d[lvl] - p))
+    inv = _inverse(lv)
+    return take(jnp.concatenate(W, axis=1), inv), take(jnp.concatenate(V, axis=1), inv)
 
 
-def _add_into(tau, sparse):
-    for i, x in sparse.items():
-        tau[i] = _add(tau[i], x)
+def _inverse(lv):
+    order = np.concatenate(lv.bodies)
+    inv = np.empty_like(order)
+    inv[order] = np.arange(len(order))
+    return inv
 
 
-def joint_inverse_inertia(model, L, Dinv):
-    """``(M^-1)_jj`` [nj] of every joint's DOF: 1 / the inertia its own torque meets in the articulated robot."""
-    tree = model.tree
-    out = []
-    for k in range(model.nj):
-        dof = tree.joint_dof[k]
-        y = half_solve(tree, L, [dof, *tree.ancestors(dof)], {dof: 1.0})
-        acc = 0.0
-        for i, yi in y.items():
-            acc = _add(acc, _mul(_mul(yi, yi), Dinv[i]))
-        out.append(acc)
-    return out
+def _joint_perm(lv):
+    """Static maps between the file's joint order and the levels' (level 1, 2, ...) order."""
+    js = np.concatenate([lv.joint[lvl] for lvl in range(1, lv.depth + 1)]) if lv.depth else np.zeros(0, np.int64)
+    inv = np.empty_like(js)
+    inv[js] = np.arange(len(js))
+    return js, inv
 
 
-def body_velocities(model, kin, qd_root, gv):
-    """World angular and CM velocities of every body for root velocities ``qd_root[b] = (v, w)`` and joint
-    rates ``gv`` (file convention)."""
-    tree = model.tree
-    w, v = {}, {}
-    for b in tree.order:
-        k = tree.joint[b]
-        if k < 0:
-            v[b], w[b] = qd_root.get(b, ((0.0,) * 3, (0.0,) * 3))
-            continue
-        a = tree.parent[b]
-        ax, p = kin.axis[k], kin.pivot[k]
-        w[b] = vadd(w[a], vscale(_mul(float(tree.sign[k]), gv[k]), ax))
-        v[b] = vadd(vadd(v[a], vcross(w[a], vsub(p, kin.d[a]))), vcross(w[b], vsub(kin.d[b], p)))
-    return w, v
+def to_levels(model, x_joint):
+    """A per-joint array [nj, B] (file order, file sign) as the levels' DOFs (tree sign)."""
+    lv = model.levels
+    return {lvl: take(x_joint, lv.joint[lvl]) * jnp.asarray(lv.sign[lvl], x_joint.dtype)[:, None]
+            for lvl in range(1, lv.depth + 1)}
 
 
-def _split(tree, x):
-    """Root (v, w) per free root and joint rates (file convention) of a DOF vector."""
-    root = {}
-    for b in tree.roots:
-        f = tree.root_dof[b]
-        if f >= 0:
-            root[b] = (tuple(x[f:f + 3]), tuple(x[f + 3:f + 6]))
-    gv = [_mul(float(tree.sign[k]), x[tree.joint_dof[k]]) for k in range(len(tree.joint_dof))]
-    return root, gv
+def from_levels(model, x):
+    """The levels' joint DOFs (tree sign) as [nj, B] in the file's order and sign."""
+    lv = model.levels
+    if not lv.depth:
+        return None
+    _, inv = _joint_perm(lv)
+    cat = jnp.concatenate([x[lvl] * jnp.asarray(lv.sign[lvl], x[lvl].dtype)[:, None] for lvl in range(1, lv.depth + 1)])
+    return take(cat, inv)
 
 
-def _arr(a, like):
-    return jnp.zeros_like(like) if _z(a) else a
+def _add(a, b):
+    return {k: a[k] + b[k] if k in b else a[k] for k in a} | {k: b[k] for k in b if k not in a}
+
+
+class _Contacts:
+    """The contact vertices: their bodies, offsets, and the static maps onto bodies and levels."""
+
+    def __init__(self, model, kin):
+        lv = model.levels
+        self.cb = model.pt_body[model.ct_pt]
+        self.nc = len(self.cb)
+        local = model.pt_local[:, model.ct_pt]                                   # [3, nc]
+        self.r = rot_const(take(kin.R_all, self.cb), local)                       # [3, nc, B]
+        self.p = take(kin.d_all, self.cb) + self.r                                # from the root's CM
+        root_item = np.array([lv.item_of[model.tree.root[b]] for b in self.cb])
+        self.world = self.p + take(kin.O, root_item)
+        self.by_body = _slots_by(self.cb, model.nb)                              # [k, nb]
+        self.level = lv.level_of[self.cb]
+        self.item = lv.item_of[self.cb]
+
+    def wrenches(self, model, kin, f):
+        """Body wrenches (per level) of vertex forces f [3, nc, B]: force, and torque about the root's CM."""
+        lv = model.levels
+        Fb = gather_sum(f, self.by_body)
+        Nb = gather_sum(cross(self.p, f), self.by_body)
+        return [take(Fb, bs) for bs in lv.bodies], [take(Nb, bs) for bs in lv.bodies]
+
+    def velocities(self, w, v):
+        """Vertex velocities [3, nc, B] from body velocities [3, nb, B]."""
+        return take(v, self.cb) + cross(take(w, self.cb), self.r)
+
+
+def _slots_by(owner, n):
+    from cpgjax.sim.tree import _slots
+
+    return _slots([list(np.nonzero(owner == b)[0]) for b in range(n)])
+
+
+def _dofs(model, state):
+    """The state's generalized velocities in the levels' layout."""
+    lv = model.levels
+    roots = lv.bodies[0]
+    u = {0: jnp.concatenate([take(state.v, roots), take(state.w, roots)])}
+    return u | to_levels(model, state.gv)
+
+
+def _axpy(x, a, y):
+    """x + a y over dof dicts."""
+    return {k: x[k] + a * y[k] for k in x}
 
 
 def step(model, state, ctrl, var=None):
     """Advance a batch of robots by ``model.dt`` on exact joints (``state``: an `ExactState`)."""
-    tree = model.tree
+    lv = model.levels
     dt = model.dt
     target, target_rate = ctrl
-    like = state.x[0, 0]
     gain = None if var is None else var.gain
-    kin = _Kin(model, state)
-    M, inertia = mass_matrix(model, kin, var)
-    L, Dinv = factor(tree, M)
-    C = bias_forces(model, kin, inertia, [state.gv[k] for k in range(model.nj)])
-    tau = [(-c if not _z(c) else 0.0) for c in C]
-    # servo (PI explicit), joint limits, both with their dampers implicit on the joint's exact inverse inertia
-    inv_ieff = joint_inverse_inertia(model, L, Dinv)
-    inv_ieff_arr = jnp.stack([_arr(x, like) for x in inv_ieff]) if model.nj else None
-    angle, rate = state.gq, state.gv
-    tau_pi, err = servo_pi(model, angle, target, state.e_int, gain)
-    tau_j = limit_torques(model, angle, rate, inv_ieff_arr)
+    kin = Kin(model, state.x, state.q, state.v, state.w)
+    masses = _masses(model, var, lv)
+    M, Iw = mass_matrix(model, kin, masses)
+    fac = Factor(model, M)
+    rates = to_levels(model, state.gv)
+    Fi, Ni = inertial_wrenches(model, kin, masses, Iw, rates)
+    con = _Contacts(model, kin) if len(model.ct_pt) else None
+    if con is not None:                         # the previous step's contact forces: the warm start
+        Fc, Nc = con.wrenches(model, kin, state.f_c)
+        Fi = [fc - fi for fc, fi in zip(Fc, Fi, strict=True)]
+        Ni = [nc - ni for nc, ni in zip(Nc, Ni, strict=True)]
+    else:
+        Fi, Ni = [-f for f in Fi], [-n for n in Ni]
+    tau = project(model, kin, Fi, Ni)
+    # servo (PI explicit) and joint limits, their dampers implicit on the joint's exact inverse inertia
+    inv_ieff = _joint_inverse_inertia(model, fac)
+    tau_pi, err = servo_pi(model, state.gq, target, state.e_int, gain)
+    tau_j = limit_torques(model, state.gq, state.gv, inv_ieff)
     if model.n_ctrl:
         tau_j = tau_j.at[model.ctrl_joint].add(tau_pi)
-    for k in range(model.nj):
-        dof = tree.joint_dof[k]
-        tau[dof] = _add(tau[dof], float(tree.sign[k]) * tau_j[k])
-    # the previous step's contact forces (the warm start of the contact solve)
-    cb = model.pt_body[model.ct_pt]
-    nc = len(cb)
-    R = kin.R
-    rc, pc = [], []
-    for c in range(nc):
-        b = int(cb[c])
-        r = rvec_const(R[:, :, b], model.pt_local[:, model.ct_pt[c]])
-        rc.append(r)
-        pc.append(vadd(kin.d[b], r))
-    for c in range(nc):
-        _add_into(tau, _point_jacobian_T(tree, kin, int(cb[c]), pc[c], _vec(state.f_c[:, c])))
-    qdd = solve(tree, L, Dinv, tau)
-    # the servos' derivative: backward Euler on the joint rate the step would give
-    if model.n_ctrl:
+    if model.nj:
+        tau = _add(tau, to_levels(model, tau_j))
+    qdd = fac.solve(tau)
+    if model.n_ctrl:                            # the servos' derivative: backward Euler on the rate the step gives
         cj = model.ctrl_joint
-        pred = jnp.stack([_arr(_add(state.gv[k], _mul(dt * float(tree.sign[k]), qdd[tree.joint_dof[k]])), like)
-                          for k in cj])
-        extra = servo_torques(model, tau_pi, pred, target_rate, gain, inv_ieff_arr[cj]) - tau_pi
-        rhs = [0.0] * tree.nv
-        for n, k in enumerate(cj):
-            rhs[tree.joint_dof[int(k)]] = float(tree.sign[int(k)]) * extra[n]
-        qdd = [_add(x, y) for x, y in zip(qdd, solve(tree, L, Dinv, rhs), strict=True)]
-    # contacts: each vertex's end-of-step velocity without its own change of force, and its inverse mass
-    if nc:
-        root_v = {b: (_vec(state.v[:, b]), _vec(state.w[:, b])) for b in tree.roots}
-        qd = [0.0] * tree.nv
-        for b, (v0, w0) in root_v.items():
-            f = tree.root_dof[b]
-            if f >= 0:
-                qd[f:f + 6] = [*v0, *w0]
-        for k in range(model.nj):
-            qd[tree.joint_dof[k]] = float(tree.sign[k]) * state.gv[k]
-        qstar = [_add(x, _mul(dt, y)) for x, y in zip(qd, qdd, strict=True)]
-        roots_star, gv_star = _split(tree, qstar)
-        w_s, v_s = body_velocities(model, kin, roots_star, gv_star)
-        cp_world = jnp.stack([jnp.stack([_arr(_add(kin.O[tree.root[int(cb[c])]][i], pc[c][i]), like)
-                                         for c in range(nc)]) for i in range(3)])
-        vstar = jnp.stack([jnp.stack([_arr(x, like) for x in vadd(v_s[int(cb[c])], vcross(w_s[int(cb[c])], rc[c]))])
-                           for c in range(nc)], 1)
-        depth, fr = contact_frame(model, cp_world, var)
-        touch = (depth > 0).astype(depth.dtype)
-        ys = []                                 # per vertex: L^-T J^T e for e = n, t1, t2
-        for c in range(nc):
-            b = int(cb[c])
-            path = tree.path(b)
-            ys.append([half_solve(tree, L, path, _point_jacobian_T(tree, kin, b, pc[c], e))
-                       for e in _frame_dirs(fr, c)])
-
-        def kdot(ya, yb):
-            acc = 0.0
-            for i in ya.keys() & yb.keys():
-                acc = _add(acc, _mul(_mul(ya[i], yb[i]), Dinv[i]))
-            return acc
-
-        knn = [_arr(kdot(ys[c][0], ys[c][0]), like) for c in range(nc)]
-        push = {}                               # L^-T J^T n summed over the touching vertices
-        for c in range(nc):
-            for i, y in ys[c][0].items():
-                push[i] = _add(push.get(i, 0.0), _mul(y, touch[c]))
-        scale = []
-        for c in range(nc):                     # sum_j K_cj t_j / K_cc: all touching vertices pushing at once
-            if not ys[c][0]:                    # a vertex on a fixed body: nothing moves it
-                scale.append(jnp.ones_like(like))
-                continue
-            scale.append(jnp.maximum(_arr(kdot(ys[c][0], push), like) / knn[c], 1.0))
-        scale = jnp.stack(scale)
-        kn = scale * jnp.stack(knn)
-        k11 = scale * jnp.stack([_arr(kdot(ys[c][1], ys[c][1]), like) for c in range(nc)])
-        k12 = scale * jnp.stack([_arr(kdot(ys[c][1], ys[c][2]), like) for c in range(nc)])
-        k22 = scale * jnp.stack([_arr(kdot(ys[c][2], ys[c][2]), like) for c in range(nc)])
-        fp_n, fp_1, fp_2 = fr.comp(state.f_c)
-        carry_n = -dt * kn * fp_n
-        carry_t = (-dt * (k11 * fp_1 + k12 * fp_2), -dt * (k12 * fp_1 + k22 * fp_2))
-        fc, anchor, fn = contact_law(model, depth, fr, cp_world, state.anchor, fr.comp(vstar), (kn, k11, k12, k22),
-                                     carry_n, carry_t, var)
-        dfc = fc - state.f_c
-        rhs = [0.0] * tree.nv
-        for c in range(nc):
-            _add_into(rhs, _point_jacobian_T(tree, kin, int(cb[c]), pc[c], _vec(dfc[:, c])))
-        qdd = [_add(x, y) for x, y in zip(qdd, solve(tree, L, Dinv, rhs), strict=True)]
+        pred = state.gv[cj] + dt * from_levels(model, qdd)[cj]
+        extra = servo_torques(model, tau_pi, pred, target_rate, gain, inv_ieff[cj]) - tau_pi
+        qdd = _add(qdd, fac.solve(to_levels(model, jnp.zeros_like(state.gv).at[cj].set(extra))))
+    if con is not None:
+        fc, anchor, fn, qdd = _contact_step(model, state, kin, fac, con, qdd, var)
     else:
         fc, anchor, fn = state.f_c, state.anchor, state.f_n
-    return _integrate(model, state, kin, qdd, dt)._replace(
+    return _integrate(model, state, qdd, dt)._replace(
         e_int=state.e_int + dt * err, anchor=anchor, f_n=fn, f_c=fc, n=state.n + 1)
 
 
-def _frame_dirs(fr, c):
-    """The contact frame's n, t1, t2 at vertex c, as 3-tuples of [B] arrays (floats on flat ground)."""
-    if fr.n is None:
-        return [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)]
-    return [tuple(v[i, c] for i in range(3)) for v in (fr.n, fr.t1, fr.t2)]
+def _joint_inverse_inertia(model, fac):
+    """``(M^-1)_jj`` [nj, B]: 1 / the inertia each joint's own torque meets in the articulated robot."""
+    lv = model.levels
+    if not model.nj:
+        return None
+    out = {}
+    for lvl in range(1, lv.depth + 1):
+        items = np.arange(len(lv.bodies[lvl]))
+        one = jnp.ones_like(fac.Dinv[lvl])
+        y, yr, anc = fac.half_solve(lvl, items, {lvl: one}, None)
+        out[lvl] = fac.kdot((y, yr), (y, yr), anc)
+    _, inv = _joint_perm(lv)
+    return take(jnp.concatenate([out[lvl] for lvl in range(1, lv.depth + 1)]), inv)
 
 
-def _integrate(model, state, kin, qdd, dt):
-    """Semi-implicit Euler on the generalized coordinates, then the bodies' poses and velocities."""
-    tree = model.tree
-    like = state.x[0, 0]
-    x, q, v, w = {}, {}, {}, {}
-    for b in tree.roots:
-        f = tree.root_dof[b]
-        if f < 0:
-            x[b], q[b], v[b], w[b] = state.x[:, b], state.q[:, b], state.v[:, b], state.w[:, b]
+def _contact_step(model, state, kin, fac, con, qdd, var):
+    """The contact forces of the step, solved against each vertex's articulated inverse mass, and ``qdd`` with
+    their change since the previous step."""
+    dt = model.dt
+    lv = model.levels
+    u = _dofs(model, state)
+    ustar = _axpy(u, dt, qdd)
+    w_s, v_s = body_velocities(model, kin, ustar)
+    vstar = con.velocities(w_s, v_s)
+    depth, fr = contact_frame(model, con.world, var)
+    touch = (depth > 0).astype(depth.dtype)
+    # each vertex's inverse mass along n, t1, t2: half solves, level by level of the vertices' bodies
+    dirs = [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)] if fr.n is None else [fr.n, fr.t1, fr.t2]
+    k = [jnp.zeros_like(depth) for _ in range(4)]         # nn, 11, 12, 22
+    for lvl in range(lv.depth + 1):
+        sel = np.nonzero(con.level == lvl)[0]
+        if not len(sel):
             continue
-        v[b] = state.v[:, b] + dt * jnp.stack([_arr(a, like) for a in qdd[f:f + 3]])
-        w[b] = state.w[:, b] + dt * jnp.stack([_arr(a, like) for a in qdd[f + 3:f + 6]])
-        x[b] = state.x[:, b] + dt * v[b]
-        q[b] = quat_integrate(state.q[:, b], w[b], dt)
-    acc = jnp.stack([_arr(_mul(float(tree.sign[k]), qdd[tree.joint_dof[k]]), like) for k in range(model.nj)]) \
-        if model.nj else state.gv
-    gv = state.gv + dt * acc
-    gq = state.gq + dt * gv
-    R = {}
-    for b in tree.order:
-        k = tree.joint[b]
-        if k >= 0:
-            a = tree.parent[b]
-            phi = float(tree.sign[k]) * gq[k]
-            c, s = jnp.cos(0.5 * phi), jnp.sin(0.5 * phi)
-            q[b] = _quat_axis(q[a], tree.axis_index[k], c, s)
-            Ra, Rb = R[a], quat_to_mat(q[b])
-            R[b] = Rb
-            p = x[a] + jnp.stack([_arr(t, like) for t in rvec_const(Ra, tree.r_parent[:, k])])
-            x[b] = p - jnp.stack([_arr(t, like) for t in rvec_const(Rb, tree.r_child[:, k])])
-            ax = Ra[:, tree.axis_index[k]]
-            wb = w[a] + (float(tree.sign[k]) * gv[k]) * ax
-            w[b] = wb
-            v[b] = v[a] + _cross(w[a], p - x[a]) + _cross(wb, x[b] - p)
-        else:
-            R[b] = quat_to_mat(q[b])
-    order = range(model.nb)
-    return state._replace(x=jnp.stack([x[b] for b in order], 1), q=jnp.stack([q[b] for b in order], 1),
-                          v=jnp.stack([v[b] for b in order], 1), w=jnp.stack([w[b] for b in order], 1),
-                          gq=gq, gv=gv)
+        items = con.item[sel]
+        p = take(con.p, sel)
+        ys = []
+        for e in dirs:
+            e = tuple(jnp.full_like(p[0], c) for c in e) if isinstance(e[0], float) else take(e, sel)
+            e = jnp.stack(e) if isinstance(e, tuple) else e
+            b = {}
+            for a in range(1, lvl + 1):
+                anc = lv.anc[lvl][a][items] if a < lvl else items
+                b[a] = dot(e, cross(take(kin.a[a], anc), p - take(kin.p[a], anc)))
+            br = jnp.concatenate([e, cross(p, e)]) * lv.free[lv.anc[lvl][0][items] if lvl else items].astype(
+                np.float32)[:, None]
+            y, yr, anc = fac.half_solve(lvl, items, b, br)
+            ys.append((y, yr))
+        vals = [fac.kdot(ys[0], ys[0], anc), fac.kdot(ys[1], ys[1], anc), fac.kdot(ys[1], ys[2], anc),
+                fac.kdot(ys[2], ys[2], anc)]
+        k = [kk.at[sel].set(v) for kk, v in zip(k, vals, strict=True)]
+    # all touching vertices pushing at once along their normals: the response of each (one solve)
+    nvec = jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], depth.dtype)[:, None, None], con.p.shape) \
+        if fr.n is None else fr.n
+    Fp, Np = con.wrenches(model, kin, nvec * touch)
+    w_u, v_u = body_velocities(model, kin, fac.solve(project(model, kin, Fp, Np)))
+    common = dot(con.velocities(w_u, v_u), nvec)
+    knn = jnp.where(k[0] > 0, k[0], 1.0)
+    scale = jnp.where(k[0] > 0, jnp.maximum(common / knn, 1.0), 1.0)
+    kn, k11, k12, k22 = (scale * x for x in k)
+    fp_n, fp_1, fp_2 = fr.comp(state.f_c)
+    carry_n = -dt * kn * fp_n
+    carry_t = (-dt * (k11 * fp_1 + k12 * fp_2), -dt * (k12 * fp_1 + k22 * fp_2))
+    fc, anchor, fn = contact_law(model, depth, fr, con.world, state.anchor, fr.comp(vstar), (kn, k11, k12, k22),
+                                 carry_n, carry_t, var)
+    Fd, Nd = con.wrenches(model, kin, fc - state.f_c)
+    qdd = _add(qdd, fac.solve(project(model, kin, Fd, Nd)))
+    return fc, anchor, fn, qdd
 
 
-def _cross(a, b):
-    return jnp.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-def _quat_axis(qa, axis, c, s):
-    """qa * (c, s e_axis): a turn by the angle whose half has cosine c and sine s about a body axis."""
-    w, x, y, z = qa[0], qa[1], qa[2], qa[3]
-    if axis == 0:
-        out = (w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s)
-    elif axis == 1:
-        out = (w * c - y * s, x * c - z * s, y * c + w * s, z * c + x * s)
+def _integrate(model, state, qdd, dt):
+    """Semi-implicit Euler on the generalized coordinates, then the bodies' poses and velocities."""
+    lv = model.levels
+    roots = lv.bodies[0]
+    free = lv.free.astype(np.float32)[:, None]
+    v0 = take(state.v, roots) + dt * qdd[0][0:3] * free
+    w0 = take(state.w, roots) + dt * qdd[0][3:6] * free
+    x0 = take(state.x, roots) + dt * v0
+    q0 = quat_integrate(take(state.q, roots), w0, dt)
+    if not lv.free.all():
+        q0 = jnp.where(lv.free[:, None], q0, take(state.q, roots))
+    if model.nj:
+        gv = state.gv + dt * from_levels(model, qdd)
+        gq = state.gq + dt * gv
     else:
-        out = (w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s)
-    return jnp.stack(out)
+        gv, gq = state.gv, state.gq
+    X, Q, V, W, R = [x0], [q0], [v0], [w0], [quat_to_mat(q0)]
+    phi = to_levels(model, gq) if model.nj else {}
+    rate = to_levels(model, gv) if model.nj else {}
+    for lvl in range(1, lv.depth + 1):
+        par = lv.parent[lvl]
+        qp, Rp, xp, vp, wp = (take(a, par) for a in (Q[lvl - 1], R[lvl - 1], X[lvl - 1], V[lvl - 1], W[lvl - 1]))
+        half = 0.5 * phi[lvl]
+        q = _quat_axis(qp, lv.axis_index[lvl], jnp.cos(half), jnp.sin(half))
+        Rb = quat_to_mat(q)
+        p = xp + rot_const(Rp, lv.r_parent[lvl])
+        x = p - rot_const(Rb, lv.r_child[lvl])
+        w = wp + rate[lvl] * column(Rp, lv.axis_index[lvl])
+        v = vp + cross(wp, p - xp) + cross(w, x - p)
+        X.append(x)
+        Q.append(q)
+        V.append(v)
+        W.append(w)
+        R.append(Rb)
+    inv = _inverse(lv)
+    cat = [take(jnp.concatenate(a, axis=1), inv) for a in (X, Q, V, W)]
+    return state._replace(x=cat[0], q=cat[1], v=cat[2], w=cat[3], gq=gq, gv=gv)
 
+
+def _quat_axis(qa, axis_index, c, s):
+    """qa * (c, s e_axis) per item: a turn by the angle whose half has cosine c and sine s about each item's
+    body axis (x, y or z)."""
+    w, x, y, z = qa[0], qa[1], qa[2], qa[3]
+    forms = {0: (w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s),
+             1: (w * c - y * s, x * c - z * s, y * c + w * s, z * c + x * s),
+             2: (w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s)}
+    ai = np.asarray(axis_index)
+    if (ai == ai[0]).all():
+        return jnp.stack(forms[int(ai[0])])
+    out = 0.0
+    for j in range(3):
+        if (ai == j).any():
+            out = out + jnp.stack(forms[j]) * jnp.asarray((ai == j).astype(np.float32), c.dtype)[:, None]
+    return out

@@ -106,6 +106,7 @@ class Model:
     limit_c: float = LIMIT_DAMPING
     pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.step.step` dispatches)
     tree: object = field(default=None, repr=False)  # the kinematic tree of exact joints (`sim.tree.Tree`)
+    levels: object = field(default=None, repr=False)  # the same by depth (`sim.tree.Levels`)
 
     @property
     def nb(self) -> int:
@@ -140,11 +141,12 @@ class Model:
 
         new = dataclasses.replace(self, **changes)
         if new.pipeline == "exact" and (new.tree is None or "pipeline" in changes):
-            from cpgjax.sim.tree import build_tree
+            from cpgjax.sim.tree import build_levels, build_tree
 
             if new.description is None:
                 raise ValueError("a Model needs its Description to run on exact joints")
             new.tree = build_tree(new, new.description)
+            new.levels = build_levels(new.tree)
         return new
 
 
@@ -397,7 +399,8 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,
     )
     if pipe == "exact":
-        from cpgjax.sim.tree import build_tree
+        from cpgjax.sim.tree import build_levels, build_tree
 
         model.tree = build_tree(model, desc)
+        model.levels = build_levels(model.tree)
     return model

@@ -134,3 +134,81 @@ def build_tree(model, desc) -> Tree:
                 axis=np.asarray(model.j_axis, float), axis_index=axis_index, nv=len(dof_parent),
                 dof_parent=tuple(dof_parent), body_dof=tuple(body_dof), joint_dof=tuple(joint_dof),
                 root_dof=tuple(root_dof))
+
+
+@dataclass(frozen=True, eq=False)
+class Levels:
+    """The tree by depth, for straight-line code whose size grows with the depth, not the number of bodies.
+
+    Level 0 holds the roots, level l the bodies l joints below theirs.  Every array is static (numpy);
+    ``items`` index a body within its level.
+    """
+
+    bodies: tuple[np.ndarray, ...]     # [n_l] the bodies of each level
+    parent: tuple[np.ndarray, ...]     # [n_l] the parent's item in level l-1 (level 0: unused)
+    anc: tuple[tuple[np.ndarray, ...], ...]   # anc[l][a] [n_l]: the item of the level-a ancestor (a < l)
+    joint: tuple[np.ndarray, ...]      # [n_l] the joint carrying each body (level 0: -1)
+    sign: tuple[np.ndarray, ...]       # [n_l] +-1 (see Tree.sign)
+    axis_index: tuple[np.ndarray, ...]  # [n_l]
+    r_parent: tuple[np.ndarray, ...]   # [3, n_l]
+    r_child: tuple[np.ndarray, ...]    # [3, n_l]
+    free: np.ndarray                   # [n_0] the root has a floating base
+    below: tuple[tuple[np.ndarray, ...], ...]  # below[l][a] [k, n_a]: level-l descendants of each level-a item
+    level_of: np.ndarray               # [nb]
+    item_of: np.ndarray                # [nb]
+
+    @property
+    def depth(self) -> int:
+        return len(self.bodies) - 1
+
+
+def _slots(groups: list[list[int]]) -> np.ndarray:
+    """Lists of indices, padded with -1 into a [k, n] array (k = the longest list, at least 1)."""
+    k = max([len(g) for g in groups] + [1])
+    out = -np.ones((k, len(groups)), np.int64)
+    for i, g in enumerate(groups):
+        out[:len(g), i] = g
+    return out
+
+
+def build_levels(tree: Tree) -> Levels:
+    nb = len(tree.parent)
+    depth = [0] * nb
+    for b in tree.order:
+        if tree.parent[b] >= 0:
+            depth[b] = depth[tree.parent[b]] + 1
+    L = max(depth) + 1 if nb else 1
+    bodies = [np.array([b for b in tree.order if depth[b] == lv], np.int64) for lv in range(L)]
+    level_of = np.array(depth, np.int64)
+    item_of = np.zeros(nb, np.int64)
+    for lv in range(L):
+        item_of[bodies[lv]] = np.arange(len(bodies[lv]))
+
+    def ancestor(b, lv):
+        while depth[b] > lv:
+            b = tree.parent[b]
+        return b
+
+    parent, anc, joint, sign, axis_index, rp, rc, below = [], [], [], [], [], [], [], []
+    for lv in range(L):
+        bs = bodies[lv]
+        parent.append(np.array([item_of[tree.parent[b]] if lv else -1 for b in bs], np.int64))
+        anc.append(tuple(np.array([item_of[ancestor(b, a)] for b in bs], np.int64) for a in range(lv)))
+        js = np.array([tree.joint[b] for b in bs], np.int64)
+        joint.append(js)
+        if lv:
+            sign.append(tree.sign[js])
+            axis_index.append(np.array([tree.axis_index[k] for k in js], np.int64))
+            rp.append(tree.r_parent[:, js])
+            rc.append(tree.r_child[:, js])
+        else:
+            sign.append(np.ones(len(bs)))
+            axis_index.append(np.zeros(len(bs), np.int64))
+            rp.append(np.zeros((3, len(bs))))
+            rc.append(np.zeros((3, len(bs))))
+        below.append(tuple(_slots([[i for i, d in enumerate(bs) if ancestor(d, a) == up] for up in bodies[a]])
+                           for a in range(lv)))
+    return Levels(bodies=tuple(bodies), parent=tuple(parent), anc=tuple(anc), joint=tuple(joint), sign=tuple(sign),
+                  axis_index=tuple(axis_index), r_parent=tuple(rp), r_child=tuple(rc),
+                  free=np.array([tree.free_root[b] for b in bodies[0]], bool), below=tuple(below),
+                  level_of=level_of, item_of=item_of)
