@@ -82,8 +82,14 @@ def test_bristle_scale_is_a_stiffer_friction_spring():
     got = jax.jit(lambda v: rollout(m, c, time=0.5, var=v))(var)       # (scale 1 is the nominal robot: see above)
     hard = jax.jit(lambda: rollout(stiff, c, time=0.5))()
     d = np.asarray(got["distance"])
-    np.testing.assert_allclose(d[1], float(hard["distance"][1]), atol=1e-4)
-    assert abs(d[0] - d[1]) > 1e-3                                       # the bristle matters
+    # Two different compiled programs (the scale a traced input, the stiffness a constant) on a chaotic 0.5 s
+    # episode: equal physics, not equal bits.  Measured |d[1] - hard| (docs/reproducibility.md): 2e-6 natively
+    # (AVX512) and under XLA_FLAGS=--xla_cpu_max_isa=AVX2 and AVX, 1.9e-3 under SSE4_2, on an AMD EPYC; 2.0e-3 on
+    # an Intel Xeon (AVX512, from the report).  The tolerance is 2.5x the largest.
+    tol = 5e-3
+    np.testing.assert_allclose(d[1], float(hard["distance"][1]), atol=tol)
+    # the bristle matters beyond that noise (measured |d[0] - d[1]|: 0.0117 .. 0.0151 over the same four ISAs)
+    assert abs(d[0] - d[1]) > tol
     keys = jax.random.split(jax.random.PRNGKey(0), 256)
     b = np.asarray(draw(m, Perturbations(bristle=2.0), keys, 40)[0].bristle)
     assert b.min() >= 1.0 and b.max() <= 100.0 and b.max() > 30 and b.min() < 3
