@@ -143,6 +143,10 @@ def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwr
     from tqdm.auto import tqdm
 
     t_begin = time.perf_counter()
+    # one writer per run file (a lock per run, not per folder: several sweeps, or Ray's workers, may write
+    # different runs of one folder), every one taken before any file is created, replaced or resumed
+    for s in specs:
+        locks[s.path] = runlock.acquire(s.path)
     if not overwrite:
         check_new_runs(problem, specs)
     by_group: dict[tuple, list[RunSpec]] = {}
@@ -164,9 +168,6 @@ def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwr
             algo = make_algorithm(problem, s.cfg)
             p = jax.tree.map(jnp.asarray, algo.params)
             k = run_keys(s.seed)
-            # one writer per run file (lock per run, not per folder: several sweeps, or Ray's workers, may
-            # write different runs of one folder); taken before the file is created, replaced or resumed
-            locks[s.path] = runlock.acquire(s.path)
             completed, state, wall0 = open_run(problem, algo, s.path, p, k[0], resume=not overwrite, overwrite=True,
                                                init=init, metrics=metrics[algo0.population],
                                                allow_other_machine=allow_other_machine)
