@@ -30,7 +30,7 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 # on an AMD EPYC, and reported on an Intel Xeon (AVX2 and AVX512); the largest relative spread seen of each figure,
 # over the 5 results: distance and speed 1.4 % (1.3158 .. 1.3338 m), fitness 1.4 % (0.131490 .. 0.133294),
 # tilt 5.3 % (1.71 .. 1.80 deg), pivot stretch 0.7 % (1.622 .. 1.633 mm).  The tolerance is about twice that.
-# Re-measure with `cpgjax repro` (docs/reproducibility.md).
+# Re-measure with the loop in docs/reproducibility.md.
 RTOL = {"distance": 0.03, "speed": 0.03, "fitness": 0.03, "tilt": 0.10, "pivots": 0.015}
 NUMBER = re.compile(r"[-+]?\d+\.\d+(?:e[-+]?\d+)?")
 BLOCK = re.compile(r"(<!-- example -->\n```\n\$ (?P<cmd>cpgjax [^\n]+)\n)(?P<out>.*?)(```)", re.S)
