@@ -19,14 +19,21 @@ def _run(m, var, time, record=False):
     return jax.tree.map(np.asarray, jax.jit(lambda v: rollout(m, coeffs, time=time, var=v, record=record))(var))
 
 
-def test_the_nominal_variation_is_bitwise_the_nominal_robot():
+def test_the_nominal_variation_is_the_nominal_robot():
     m = load_model("models/quadruped.wl")
     rng = np.random.default_rng(0)
     C = jnp.asarray(rng.uniform(-0.5, 0.5, (3, m.n_ctrl, m.n_coeff)), jnp.float32)
     plain = jax.jit(lambda c: evaluate(m, c, time=0.5))(C)
     nominal = jax.jit(lambda c, v: evaluate(m, c, time=0.5, var=v))(C, Variation.nominal(m, 3))
+    # Two compiled programs (with and without the variation's inputs): equal bits natively (AVX512, AMD EPYC),
+    # but under XLA_FLAGS=--xla_cpu_max_isa=SSE4_2 and AVX they differ by up to 9.2e-7 (fitness; distance
+    # 4.3e-7) over this 0.5 s episode (docs/reproducibility.md).  Flags exact, numbers within 10x that.
     for k in plain:
-        np.testing.assert_array_equal(np.asarray(plain[k]), np.asarray(nominal[k]), err_msg=k)
+        a, b = np.asarray(plain[k]), np.asarray(nominal[k])
+        if a.dtype == bool:
+            np.testing.assert_array_equal(a, b, err_msg=k)
+        else:
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-5, err_msg=k)
 
 
 def test_resting_penetration_follows_the_scaled_mass():
