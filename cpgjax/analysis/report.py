@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from cpgjax.analysis.cells import ES_NAMES, load_cells
-from cpgjax.io.results import read_attrs
+from cpgjax.io.results import machines_line, read_attrs, writing_note
 from cpgjax.io.sweepdir import find_runs, same_setting
 
 PLATEAU = 20   # generations at the end over which the GA's best-of-generation is averaged ("plateau")
@@ -348,6 +348,21 @@ def evaluation_line(files: Sequence[str]) -> str:
     return "Evaluations: " + "; ".join(f"{k}: {n} runs" for k, n in kinds.items()) + "."
 
 
+def provenance_lines(files: Sequence[str]) -> list[str]:
+    """Where the runs came from, when it matters: more than one machine (or versions), runs still being written.
+    Each line is followed by an empty one; none when every run is complete and from one machine."""
+    out = []
+    m = machines_line(files)
+    if m:
+        out += [m, ""]
+    writing = [n for n in (writing_note(p) for p in files) if n]
+    if writing:
+        out += [f"Still going: {len(writing)} run{'s are' if len(writing) > 1 else ' is'} being written; "
+                "this report reads their complete generations so far.", "",
+                *[f"- {n}" for n in writing], ""]
+    return out
+
+
 def report(out_dir: str | os.PathLike[str]) -> str:
     """The markdown summary of a sweep: every cell (mean ± sd over seeds) and the thesis's claims checked."""
     files = [p for fs in find_runs(out_dir).values() for p in fs]
@@ -356,6 +371,7 @@ def report(out_dir: str | os.PathLike[str]) -> str:
     stats = [(c, cell_stats(c)) for c in load_cells(files)]
     ctx = Sweep(stats)
     lines = [f"# Sweep report: `{os.fspath(out_dir)}`", "", evaluation_line(files), "",
+             *[f"{line}" for line in provenance_lines(files)],
              f"Best = best valid fitness found in the run; plateau = GA: mean of the best of each generation "
              f"over the last {PLATEAU} generations (searches: best so far at the end); t90 = first generation at "
              "which the 10-generation running mean of the best reaches 90 % of the way from generation 0 to "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from typing import Any
 
 from cpgjax.cli import options as o
@@ -126,6 +127,11 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.out:
         o.check_output_dir(args.out)
     files = transfer.run_files(args.runs)
+    from cpgjax.io.results import machines_line, writing_note
+
+    for note in (writing_note(p) for p in files):
+        if note:
+            print(note, file=sys.stderr)
     pick, here = None, []
     if args.pick == "validated":
         from cpgjax.experiments.validate import validate
@@ -150,6 +156,10 @@ def cmd_transfer(args: argparse.Namespace) -> int:
         here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
         summary["joint_spring"] = list(args.joint_spring)
     text = transfer.table(replays, args.replays, here=", ".join(here) or None, by=args.by)
+    machines = machines_line(files)
+    if machines:
+        text += "\n\n" + machines
+        summary["machines"] = machines
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "transfer.md"), "w") as f:

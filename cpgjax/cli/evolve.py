@@ -12,6 +12,7 @@ import argparse
 import json
 import os
 import shlex
+import sys
 from typing import Any
 
 from cpgjax.cli import options as o
@@ -63,6 +64,9 @@ def register(subparsers: Any) -> None:
         g = p.add_mutually_exclusive_group()
         g.add_argument("--resume", action="store_true", help="continue the run in --out")
         g.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+        p.add_argument("--allow-other-machine", action="store_true",
+                       help="--resume a run computed on another CPU or with other versions (refused otherwise: "
+                            "the numbers would mix; the file records the switch, docs/reproducibility.md)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     p = subparsers.add_parser("evolve", help="evolve CPG controllers with the genetic algorithm (Ch. 4.3)",
@@ -205,7 +209,8 @@ def _run_command(args: argparse.Namespace, kind: str) -> int:
                   for n in PROBLEM_OPTIONS}
             problem = make_problem(args.model, **pa)
             run = run_ga if kind == "ga" else run_search
-            summary = run(problem, cfg, out, resume=args.resume, overwrite=args.overwrite, progress=not args.quiet)
+            summary = run(problem, cfg, out, resume=args.resume, overwrite=args.overwrite, progress=not args.quiet,
+                          allow_other_machine=args.allow_other_machine)
         except KeyboardInterrupt:
             raise interrupted(args, out or "?") from None
     _report(summary)
@@ -240,10 +245,13 @@ def cmd_search(args: argparse.Namespace) -> int:
 def cmd_best(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from cpgjax.io.results import read_run
+    from cpgjax.io.results import read_run, writing_note
 
     o.check_output_file(args.ctl, "--ctl")
     run = read_run(args.run)
+    note = writing_note(run.path, run.attrs, run.writer) if run.writer is not None else None
+    if note:
+        print(note, file=sys.stderr)
     gen, idx, fit, genome = run.best()
     if args.validate:
         from cpgjax.experiments.validate import validate
@@ -280,10 +288,15 @@ def cmd_best(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    from cpgjax.io.results import writing_note
     from cpgjax.plots import plot_runs
 
     out = args.out or os.path.splitext(args.runs[0])[0] + ".png"
     o.check_output_file(out)
+    for p in args.runs:                 # a run still being written: its complete generations are plotted
+        note = writing_note(p) if os.path.isfile(p) else None
+        if note:
+            print(note, file=sys.stderr)
     plot_runs(args.runs, out, x=args.x, cloud=not args.no_cloud, title=args.title)
     print(f"wrote {out}")
     return 0

@@ -121,6 +121,9 @@ def register(subparsers: Any) -> None:
                    help="--ray: number of shards (tasks), each with CPUs/N cores (default: one per node, "
                         "sized by its CPUs)")
     p.add_argument("--overwrite", action="store_true", help="start every run anew")
+    p.add_argument("--allow-other-machine", action="store_true",
+                   help="continue runs computed on another CPU or with other versions (refused otherwise: the "
+                        "numbers would mix; each file records the switch, docs/reproducibility.md)")
     p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_sweep)
@@ -211,12 +214,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                 sweep.write_manifest(args.out, specs, pa)
                 summary = cluster.run_on_ray(pa, specs, address=args.ray or None, workers=args.workers,
                                              chunk=args.chunk, overwrite=args.overwrite,
-                                             progress=not args.quiet, group=args.group)
+                                             progress=not args.quiet, group=args.group,
+                                             allow_other_machine=args.allow_other_machine)
             else:
                 problem = sweep.sweep_problem(pa, batch=sweep.total_batch(specs))
                 sweep.write_manifest(args.out, specs, pa)
                 summary = sweep.run_sweep(problem, specs, chunk=args.chunk, overwrite=args.overwrite,
-                                          progress=not args.quiet, group=args.group)
+                                          progress=not args.quiet, group=args.group,
+                                          allow_other_machine=args.allow_other_machine)
         except KeyboardInterrupt:
             from cpgjax.cli.evolve import resume_command
 
@@ -243,6 +248,9 @@ def cmd_report(args: argparse.Namespace) -> int:
     o.check_output_file(out)
     o.check_output_file(args.fig_6_12, "--fig-6-12")
     text = write_report(args.sweep, out)
+    if "Still going:" in text:
+        print(f"{args.sweep}: some runs are still being written: the report reads their complete generations",
+              file=sys.stderr)
     print(text)
     print(f"wrote {out}")
     if args.fig_6_12:

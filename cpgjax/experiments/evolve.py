@@ -38,7 +38,18 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.errors import ResultsError
-from cpgjax.io.results import Row, RunWriter, create_run, read_attrs, read_resume_point, read_run
+from cpgjax.io import runlock
+from cpgjax.io.results import (
+    Row,
+    RunWriter,
+    create_run,
+    machine,
+    machine_differences,
+    read_attrs,
+    read_resume_point,
+    read_run,
+    run_machines,
+)
 from cpgjax.optim import baselines, es, ga
 from cpgjax.optim.algorithm import Algorithm, ga_algorithm, make_algorithm, make_chunk_fn
 from cpgjax.optim.problem import Problem
@@ -215,6 +226,21 @@ def check_problem(path: str, problem: Problem, attrs: dict | None = None, verb: 
                            f"{_fmt(old.get(k), unit)} {fix}")
 
 
+def _check_machine(path: str, completed: int, allow: bool) -> None:
+    """Refuse to continue on another machine or versions than those that computed the run's last generations
+    (unless ``allow``: then the file's ``machines`` attribute records the switch)."""
+    machines = run_machines(read_attrs(path))
+    diff = machine_differences(machines[-1])
+    if not diff:
+        return
+    if not allow:
+        raise ResultsError(f"{path}: cannot resume on another machine or versions ({'; '.join(diff)}): the numbers "
+                           "would mix two machines' rounding in one run (docs/reproducibility.md); add "
+                           "--allow-other-machine to go on anyway, or start anew with --overwrite")
+    with RunWriter(path) as w:
+        w.set_attr("machines", json.dumps(machines + [{"from_generation": completed, **machine()}]))
+
+
 def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int, ...], Any]]:
     """The per-individual metrics ``problem.evaluate`` returns besides fitness (shapes for the run file).
 
@@ -231,7 +257,7 @@ def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int
 
 def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k_init: jax.Array, *,
              resume: bool, overwrite: bool, init: Callable | None = None,
-             metrics: dict | None = None) -> tuple[int, Any, float]:
+             metrics: dict | None = None, allow_other_machine: bool = False) -> tuple[int, Any, float]:
     """Where a run starts: ``(completed generations, algorithm state, wall time so far)``.
 
     ``resume`` and an existing file: its settings are checked against ``algo`` (the number of
@@ -240,11 +266,16 @@ def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k
     the state is ``algo.init`` with the run's ``k_init``.  ``path=None``: nothing on disk.
     ``init`` (a jitted ``algo.init``) and ``metrics`` (:func:`metrics_spec`) may be passed in by
     callers that open many runs of one shape, so that neither is traced again for each.
+    A run to continue that was computed on another machine or with other versions (the CPU, its vector
+    ISA, cpgjax, jax, jaxlib, mujoco: :func:`cpgjax.io.results.machine`) is refused unless
+    ``allow_other_machine``; then the file records from which generation on this machine computed it.
     """
     state_spec = jax.eval_shape(algo.init, params, k_init)
     if path is not None and resume and os.path.exists(path):
         _check_resume(path, algo, problem)
         completed, stored, wall0 = read_resume_point(path)
+        if completed < algo.generations:
+            _check_machine(path, completed, allow_other_machine)
         if int(read_attrs(path)["generations"]) != algo.generations:
             with RunWriter(path) as w:
                 w.set_attr("generations", algo.generations)
@@ -265,13 +296,16 @@ def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k
 
 
 def _run(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, **kw: Any) -> dict[str, Any]:
-    with deferred_sigint():
+    # one writer per run file: the lock is taken before anything is created, replaced or read for --resume,
+    # and held until the last generation is written (cpgjax.io.runlock)
+    with deferred_sigint(), runlock.hold(None if out is None else os.fspath(out)):
         return _run_deferred(problem, algo, out, **kw)
 
 
 def _run_deferred(problem: Problem, algo: Algorithm, out: str | os.PathLike[str] | None, *, chunk: int,
                   seed: int, static: tuple, resume: bool, overwrite: bool, progress: bool, stop_after: int | None,
-                  callback: Callable[[int, dict[str, float]], None] | None, desc: str) -> dict[str, Any]:
+                  callback: Callable[[int, dict[str, float]], None] | None, desc: str,
+                  allow_other_machine: bool = False) -> dict[str, Any]:
     from tqdm.auto import tqdm
 
     path = None if out is None else os.fspath(out)
@@ -279,7 +313,8 @@ def _run_deferred(problem: Problem, algo: Algorithm, out: str | os.PathLike[str]
     params = jax.tree.map(jnp.asarray, algo.params)
     chunk_fn = _cached_chunk_fn(problem, algo, chunk, static)
 
-    completed, state, wall0 = open_run(problem, algo, path, params, k_init, resume=resume, overwrite=overwrite)
+    completed, state, wall0 = open_run(problem, algo, path, params, k_init, resume=resume, overwrite=overwrite,
+                                       allow_other_machine=allow_other_machine)
 
     target = algo.generations
     if stop_after is not None:
@@ -365,7 +400,8 @@ def _run_deferred(problem: Problem, algo: Algorithm, out: str | os.PathLike[str]
 def run_ga(problem: Problem, cfg: ga.GAConfig, out: str | os.PathLike[str] | None = None, *,
            resume: bool = False, overwrite: bool = False, progress: bool = False,
            stop_after: int | None = None,
-           callback: Callable[[int, dict[str, float]], None] | None = None) -> dict[str, Any]:
+           callback: Callable[[int, dict[str, float]], None] | None = None,
+           allow_other_machine: bool = False) -> dict[str, Any]:
     """Evolve ``cfg.generations`` generations of the GA on ``problem``, writing ``out`` (HDF5).
 
     ``resume``: continue the run in ``out`` (a missing file starts a new run); the stored
@@ -373,24 +409,26 @@ def run_ga(problem: Problem, cfg: ga.GAConfig, out: str | os.PathLike[str] | Non
     ``overwrite``: replace an existing file (otherwise an existing file is an error).
     ``stop_after``: stop after that many generations in this call (time-limited jobs, tests).
     ``callback(completed, info)`` is called after each chunk.  ``out=None`` keeps the results
-    in memory (``summary["history"]``).  Returns a summary dict (best fitness, generation,
-    index and genome, evaluations per second, compile time, ...).
+    in memory (``summary["history"]``).  ``allow_other_machine``: resume a run computed on another
+    machine or with other versions (recorded in the file; otherwise refused).  Returns a summary dict
+    (best fitness, generation, index and genome, evaluations per second, compile time, ...).
     """
     return _run(problem, ga_algorithm(problem, cfg), out, chunk=cfg.chunk, seed=cfg.seed, static=(),
                 resume=resume,
                 overwrite=overwrite, progress=progress, stop_after=stop_after, callback=callback,
-                desc="evolve")
+                desc="evolve", allow_other_machine=allow_other_machine)
 
 
 def run_search(problem: Problem, cfg: baselines.SearchConfig | es.ESConfig,
                out: str | os.PathLike[str] | None = None, *,
                resume: bool = False, overwrite: bool = False, progress: bool = False,
                stop_after: int | None = None,
-               callback: Callable[[int, dict[str, float]], None] | None = None) -> dict[str, Any]:
+               callback: Callable[[int, dict[str, float]], None] | None = None,
+               allow_other_machine: bool = False) -> dict[str, Any]:
     """Run a baseline search (:mod:`cpgjax.optim.baselines`) or an evolution strategy (:mod:`cpgjax.optim.es`)
     with the layout, keys and resume of :func:`run_ga`."""
     static = tuple(sorted((k, v) for k, v in cfg.to_dict().items() if k not in ("seed", "chunk")))
     return _run(problem, make_algorithm(problem, cfg), out, chunk=cfg.chunk, seed=cfg.seed, static=static,
                 resume=resume,
                 overwrite=overwrite, progress=progress, stop_after=stop_after, callback=callback,
-                desc=cfg.method)
+                desc=cfg.method, allow_other_machine=allow_other_machine)

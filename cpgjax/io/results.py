@@ -16,7 +16,14 @@ Layout (``format = "cpgjax-run"``, ``format_version = 1``)::
         meta                     JSON of Problem.meta; each entry is also an attribute of its
                                  own (model_path, model_text (the .wl file's text), time,
                                  terrain, delta, dt, n_dof, harmonics, ...)
-        versions                 JSON {python, cpgjax, jax, jaxlib, numpy, h5py, platform, device}
+        versions                 JSON {python, cpgjax, jax, jaxlib, mujoco, numpy, h5py, platform, device,
+                                 cpu, isa, xla_flags}: cpu the CPU's model name, isa the widest vector
+                                 instructions XLA may use here (AVX512, AVX2, ..., or the cap of
+                                 XLA_FLAGS=--xla_cpu_max_isa=...)
+        machines                 JSON list of {from_generation, cpu, isa, cpgjax, jax, jaxlib, mujoco}:
+                                 the machine (and versions) that computed the run from that generation on;
+                                 more than one entry only after ``--resume --allow-other-machine``
+                                 (docs/reproducibility.md)
         created                  ISO time the run was created
     /genomes        float32 [G_done, N, n_genes]  every genome evaluated in each generation
     /fitness        float32 [G_done, N]           fitness as evaluated (NaN kept when diverged)
@@ -48,6 +55,7 @@ import json
 import os
 import platform
 import sys
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -56,14 +64,67 @@ import h5py
 import numpy as np
 
 from cpgjax.errors import ResultsError
+from cpgjax.io import runlock
 
 FORMAT = "cpgjax-run"
 FORMAT_VERSION = 1
 ROW_DATASETS = ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate", "wall_time")
 
 
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``; elsewhere what :mod:`platform` knows)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
+# x86-64 vector instruction sets XLA's CPU backend chooses between, narrowest first (--xla_cpu_max_isa)
+ISAS = ("SSE4_2", "AVX", "AVX2", "AVX512")
+_CPU_FLAG = {"SSE4_2": "sse4_2", "AVX": "avx", "AVX2": "avx2", "AVX512": "avx512f"}
+
+
+def isa(xla_flags: str | None = None) -> str:
+    """The widest vector instruction set XLA may use here: the CPU's (``/proc/cpuinfo`` flags), capped by
+    ``--xla_cpu_max_isa=...`` in ``XLA_FLAGS`` (``xla_flags``; default the environment's).  Another
+    architecture than x86-64: its name (``aarch64``)."""
+    flags = os.environ.get("XLA_FLAGS", "") if xla_flags is None else xla_flags
+    cpu: set[str] = set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    cpu = set(line.split(":", 1)[1].split())
+                    break
+    except OSError:
+        pass
+    have = [i for i in ISAS if _CPU_FLAG[i] in cpu]
+    if not have:
+        return platform.machine() or "unknown"
+    best = have[-1]
+    for tok in flags.split():
+        if tok.startswith("--xla_cpu_max_isa="):
+            cap = tok.split("=", 1)[1].upper().replace("AVX512F", "AVX512").replace("AVX512_", "AVX512")
+            if cap in ISAS and ISAS.index(cap) < ISAS.index(best):
+                best = cap
+    return best
+
+
+def _version(dist: str) -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "none"
+
+
 def versions() -> dict[str, str]:
-    """Versions of the packages that make a run reproducible."""
+    """Versions of the packages and the machine that make a run reproducible (docs/reproducibility.md)."""
     import jax
     import jaxlib
 
@@ -74,8 +135,48 @@ def versions() -> dict[str, str]:
     except Exception:  # pragma: no cover - no backend
         device = "unknown"
     return {"python": sys.version.split()[0], "cpgjax": cpgjax.__version__, "jax": jax.__version__,
-            "jaxlib": jaxlib.__version__, "numpy": np.__version__, "h5py": h5py.__version__,
-            "platform": platform.platform(), "device": device}
+            "jaxlib": jaxlib.__version__, "mujoco": _version("mujoco"), "numpy": np.__version__,
+            "h5py": h5py.__version__, "platform": platform.platform(), "device": device, "cpu": cpu_model(),
+            "isa": isa(), "xla_flags": os.environ.get("XLA_FLAGS", "")}
+
+
+# what decides a run's numbers bit for bit (besides its settings): the machine's CPU and vector ISA, and the
+# versions of the code that compiles and runs the simulator (jax, jaxlib) and of cpgjax (and MuJoCo, for
+# what is replayed in it)
+MACHINE_KEYS = ("cpu", "isa", "cpgjax", "jax", "jaxlib", "mujoco")
+
+
+def machine(v: Mapping[str, Any] | None = None) -> dict[str, str]:
+    """The entries of :func:`versions` (default: this process's) that a run's numbers depend on."""
+    v = versions() if v is None else v
+    return {k: str(v[k]) for k in MACHINE_KEYS if k in v and v[k] not in (None, "")}
+
+
+def describe_machine(m: Mapping[str, Any]) -> str:
+    """``AMD EPYC (AVX512), cpgjax 0.1.0, jax 0.10.2, jaxlib 0.10.2, mujoco 3.3.7`` (what is known of it)."""
+    cpu = m.get("cpu", "unknown CPU") + (f" ({m['isa']})" if m.get("isa") else "")
+    return ", ".join([cpu] + [f"{k} {m[k]}" for k in ("cpgjax", "jax", "jaxlib", "mujoco") if m.get(k)])
+
+
+def run_machines(attrs: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The machines that computed a run: ``[{"from_generation": 0, cpu, isa, ...}, ...]`` (files written before
+    the ``machines`` attribute: the one of ``versions``, with what it recorded)."""
+    with contextlib.suppress(ValueError, TypeError):
+        if attrs.get("machines"):
+            return list(json.loads(attrs["machines"]))
+    try:
+        v = json.loads(attrs.get("versions") or "{}")
+    except ValueError:
+        v = {}
+    return [{"from_generation": 0, **machine(v)}]
+
+
+def machine_differences(stored: Mapping[str, Any], here: Mapping[str, Any] | None = None) -> list[str]:
+    """``["isa AVX512 -> SSE4_2", ...]``: what differs between a recorded machine and this one (keys the record
+    lacks, as in files written before they were recorded, are not compared)."""
+    here = machine() if here is None else here
+    return [f"{k} {stored[k]} -> {here.get(k, 'unknown')}" for k in MACHINE_KEYS
+            if stored.get(k) not in (None, "") and str(stored[k]) != str(here.get(k, ""))]
 
 
 def _attr_value(v: Any) -> Any:
@@ -159,7 +260,9 @@ def _create(tmp: str, *, kind: str, config: Mapping[str, Any], problem, n: int, 
         for k, v in problem.meta.items():
             if k not in a:
                 a[k] = _attr_value(v)
-        a["versions"] = _json(versions())
+        v = versions()
+        a["versions"] = _json(v)
+        a["machines"] = _json([{"from_generation": 0, **machine(v)}])
         a["created"] = _dt.datetime.now().isoformat(timespec="seconds")
 
         def make(name: str, row: tuple[int, ...], dtype: Any) -> None:
@@ -257,6 +360,7 @@ class Run:
     wall_time: np.ndarray      # [G]
     metrics: dict[str, np.ndarray]
     state: dict[str, np.ndarray]
+    writer: dict | None = None  # the process writing the file as it was read (cpgjax.io.runlock.holder), or None
 
     @property
     def kind(self) -> str:
@@ -347,13 +451,36 @@ def _unreadable(p: str, what: str, e: BaseException, last_ok: int | None = None)
     return ResultsError(f"{p}: {what} cannot be read (HDF5: {_reason(e)}); {hint}; start anew with --overwrite")
 
 
+READ_TRIES = 10        # a file being written: tries to read a consistent state (0.2 s apart) before giving up
+
+
 def read_run(path: str | os.PathLike[str]) -> Run:
-    """Read a run file (safe on a file another process is writing: opened without locking)."""
+    """Read a run file; safe on a file another process is writing (opened without HDF5's locking, the
+    rows cut to the generations complete in every dataset, a read torn by a write tried again).
+    ``Run.writer`` says who is writing it (None: nobody)."""
     p = os.fspath(path)
+    for attempt in range(READ_TRIES):
+        writer = runlock.holder(p)
+        try:
+            run = _read_run(p)
+        except ResultsError:
+            if writer is None or attempt == READ_TRIES - 1:
+                raise
+            time.sleep(0.2)
+            continue
+        run.writer = writer
+        return run
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _read_run(p: str) -> Run:
     with _open(p) as f:
         _check(f, p)
         attrs = {k: _decode(v) for k, v in f.attrs.items()}
         n = int(attrs["completed"])
+        # a writer sets `completed` after the rows; on disk, before its flush, a dataset may still be shorter
+        n = min([n] + [ds.shape[0] for ds in _datasets(f)])
+        attrs["completed"] = n
 
         def rows(name: str) -> np.ndarray:
             try:
@@ -370,6 +497,40 @@ def read_run(path: str | os.PathLike[str]) -> Run:
                    genomes=rows("genomes"), fitness=rows("fitness"), diverged=rows("diverged"),
                    n_diverged=rows("n_diverged"), mutation_rate=rows("mutation_rate"),
                    wall_time=rows("wall_time"), metrics=group("metrics"), state=group("state"))
+
+
+def writing_note(path: str | os.PathLike[str], attrs: Mapping[str, Any] | None = None,
+                 writer: dict | None = None) -> str | None:
+    """``RUN.h5: still being written by pid 12 on host (cpgjax evolve ...): read its 7 complete generations of 30``,
+    or None when no process is writing it (``writer``: a :func:`cpgjax.io.runlock.holder` already asked)."""
+    p = os.fspath(path)
+    writer = runlock.holder(p) if writer is None else writer
+    if writer is None:
+        return None
+    try:
+        a = read_attrs(p) if attrs is None else attrs
+        done = f": read its {int(a['completed'])} complete generations of {int(a['generations'])}"
+    except (ResultsError, KeyError, ValueError):
+        done = ""
+    return f"{p}: still being written by {runlock.describe(writer)}{done}"
+
+
+def machines_line(files) -> str | None:
+    """One line naming the machines (CPU, ISA, versions) that computed ``files``' runs when there is more than one
+    (results differ across machines beyond the last bits: docs/reproducibility.md), else None."""
+    seen: dict[str, int] = {}
+    for p in files:
+        try:
+            ms = run_machines(read_attrs(p))
+        except ResultsError:
+            continue
+        for m in {describe_machine(m) for m in ms}:
+            seen[m] = seen.get(m, 0) + 1
+    if len(seen) < 2:
+        return None
+    return (f"Machines: these runs were computed on {len(seen)} machines or versions (their numbers are not "
+            "comparable bit for bit, docs/reproducibility.md): "
+            + "; ".join(f"{m}: {n} run{'s' if n > 1 else ''}" for m, n in seen.items()) + ".")
 
 
 def _last_readable(f: h5py.File, name: str, n: int) -> int:

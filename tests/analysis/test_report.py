@@ -63,3 +63,26 @@ def test_report_has_the_table_and_every_claim(sweep):
                    "Random search: mean fitness ≈ 0", "Adaptive MC: positive mean", "GA outperforms the other methods"]:
         assert needle in text
     assert rep.write_report(sweep) == (sweep / "report.md").read_text() == text
+
+
+def test_the_report_says_when_runs_came_from_more_than_one_machine(sweep):
+    import json
+
+    import h5py
+
+    from cpgjax.io.sweepdir import find_runs
+
+    assert "Machines:" not in rep.report(sweep)
+    files = [p for fs in find_runs(sweep).values() for p in fs]
+    with h5py.File(files[0], "a") as f:
+        old = f.attrs["machines"]
+        m = json.loads(old)
+        m[-1]["cpu"] = "Intel(R) Xeon(R) Gold 6338"
+        f.attrs["machines"] = json.dumps(m)
+    try:
+        text = rep.report(sweep)
+        line = next(x for x in text.splitlines() if x.startswith("Machines:"))
+        assert "2 machines" in line and "Intel(R) Xeon(R) Gold 6338" in line and "1 run;" in line
+    finally:
+        with h5py.File(files[0], "a") as f:
+            f.attrs["machines"] = old

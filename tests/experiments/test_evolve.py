@@ -153,3 +153,40 @@ def test_cli_evolve_resume_best_search_plot(tmp_path, monkeypatch, capsys):
     assert cli("evolve", m, "--generations", "3", "--out", "r.h5", "--overwrite", "--quiet") == 0
     assert read_run("r.h5").completed == 3
     assert cli("evolve", "analytic:nope:3", "--quiet") == 2
+
+
+def _as_if_from(path, **other) -> None:
+    """Make a run file look computed on another machine (its recorded machine changed)."""
+    import json
+
+    import h5py
+
+    with h5py.File(path, "a") as f:
+        m = json.loads(f.attrs["machines"])
+        m[-1].update(other)
+        f.attrs["machines"] = json.dumps(m)
+
+
+def test_resume_on_another_machine_is_refused_unless_allowed(tmp_path):
+    import json
+
+    from cpgjax.io.results import machine, read_attrs
+
+    problem = analytic_problem(SPEC)
+    out = tmp_path / "run.h5"
+    run_ga(problem, CFG, out, stop_after=4)
+    m = json.loads(read_attrs(out)["machines"])
+    assert m == [{"from_generation": 0, **machine()}] and {"cpu", "isa", "jax", "jaxlib", "cpgjax"} <= set(m[0])
+    _as_if_from(out, cpu="Intel(R) Xeon(R) Gold 6338", isa="AVX2")
+    with pytest.raises(ResultsError) as e:
+        run_ga(problem, CFG, out, resume=True)
+    msg = str(e.value)
+    assert "\n" not in msg and str(out) in msg and "another machine" in msg and "isa AVX2 -> " in msg
+    assert "--allow-other-machine" in msg and read_run(out).completed == 4      # nothing written
+    run_ga(problem, CFG, out, resume=True, allow_other_machine=True)
+    m = json.loads(read_attrs(out)["machines"])
+    assert [x["from_generation"] for x in m] == [0, 4] and m[1] == {"from_generation": 4, **machine()}
+    assert read_run(out).completed == CFG.generations
+    # the same machine again: no question asked (the last machine is the one compared)
+    run_ga(problem, CFG.__class__(**{**CFG.to_dict(), "generations": 18}), out, resume=True)
+    assert len(json.loads(read_attrs(out)["machines"])) == 2

@@ -348,3 +348,22 @@ def test_new_seeds_scored_otherwise_than_the_sweep_are_refused(tmp_path, capsys)
                                                                                       "s0.h5")]
     assert cli.main([*base, *robust, "--seeds", "1:2"]) == 0     # the sweep's own settings add it
     assert len(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == 2
+
+
+def test_a_run_file_another_writer_holds_stops_the_sweep_before_it_writes(tmp_path, capsys):
+    """One writer per run file: a sweep whose run is being written elsewhere (here: its lock held) stops with one
+    line naming that file, exit 2, and creates, replaces or resumes none of its runs."""
+    from cpgjax.io import runlock
+
+    out = str(tmp_path / "s")
+    args = ["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "2",
+            "--out", out, "--quiet"]
+    held = os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff", "s1.h5")
+    with runlock.hold(held):
+        capsys.readouterr()
+        assert cli.main(args + ["--overwrite"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and held in err and f"pid {os.getpid()}" in err
+        assert sweepdir.find_runs(out) == {}                      # no run file created, not even s0's
+    assert cli.main(args) == 0 and len(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == 2
+    assert not [f for _, _, fs in os.walk(out) for f in fs if f.endswith(".lock")]   # every lock let go

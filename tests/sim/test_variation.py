@@ -19,14 +19,21 @@ def _run(m, var, time, record=False):
     return jax.tree.map(np.asarray, jax.jit(lambda v: rollout(m, coeffs, time=time, var=v, record=record))(var))
 
 
-def test_the_nominal_variation_is_bitwise_the_nominal_robot():
+def test_the_nominal_variation_is_the_nominal_robot():
     m = load_model("models/quadruped.wl")
     rng = np.random.default_rng(0)
     C = jnp.asarray(rng.uniform(-0.5, 0.5, (3, m.n_ctrl, m.n_coeff)), jnp.float32)
     plain = jax.jit(lambda c: evaluate(m, c, time=0.5))(C)
     nominal = jax.jit(lambda c, v: evaluate(m, c, time=0.5, var=v))(C, Variation.nominal(m, 3))
+    # Two compiled programs (with and without the variation's inputs): equal bits natively (AVX512, AMD EPYC),
+    # but under XLA_FLAGS=--xla_cpu_max_isa=SSE4_2 and AVX they differ by up to 9.2e-7 (fitness; distance
+    # 4.3e-7) over this 0.5 s episode (docs/reproducibility.md).  Flags exact, numbers within 10x that.
     for k in plain:
-        np.testing.assert_array_equal(np.asarray(plain[k]), np.asarray(nominal[k]), err_msg=k)
+        a, b = np.asarray(plain[k]), np.asarray(nominal[k])
+        if a.dtype == bool:
+            np.testing.assert_array_equal(a, b, err_msg=k)
+        else:
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-5, err_msg=k)
 
 
 def test_resting_penetration_follows_the_scaled_mass():
@@ -82,8 +89,14 @@ def test_bristle_scale_is_a_stiffer_friction_spring():
     got = jax.jit(lambda v: rollout(m, c, time=0.5, var=v))(var)       # (scale 1 is the nominal robot: see above)
     hard = jax.jit(lambda: rollout(stiff, c, time=0.5))()
     d = np.asarray(got["distance"])
-    np.testing.assert_allclose(d[1], float(hard["distance"][1]), atol=1e-4)
-    assert abs(d[0] - d[1]) > 1e-3                                       # the bristle matters
+    # Two different compiled programs (the scale a traced input, the stiffness a constant) on a chaotic 0.5 s
+    # episode: equal physics, not equal bits.  Measured |d[1] - hard| (docs/reproducibility.md): 2e-6 natively
+    # (AVX512) and under XLA_FLAGS=--xla_cpu_max_isa=AVX2 and AVX, 1.9e-3 under SSE4_2, on an AMD EPYC; 2.0e-3 on
+    # an Intel Xeon (AVX512, from the report).  The tolerance is 2.5x the largest.
+    tol = 5e-3
+    np.testing.assert_allclose(d[1], float(hard["distance"][1]), atol=tol)
+    # the bristle matters beyond that noise (measured |d[0] - d[1]|: 0.0117 .. 0.0151 over the same four ISAs)
+    assert abs(d[0] - d[1]) > tol
     keys = jax.random.split(jax.random.PRNGKey(0), 256)
     b = np.asarray(draw(m, Perturbations(bristle=2.0), keys, 40)[0].bristle)
     assert b.min() >= 1.0 and b.max() <= 100.0 and b.max() > 30 and b.min() < 3

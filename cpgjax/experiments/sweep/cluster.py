@@ -21,7 +21,10 @@ Ray holds bit for bit the files of the same sweep in one process (``tests/experi
 from their files, which hold complete generations, so at most the chunk of generations in flight is
 lost.  A run's file is written by one task at a time: a task holds an exclusive POSIX lock
 (``OUT/.locks/<cell>/s<seed>.lock``) on each of its runs while it works, and a retry racing a
-predecessor that is not dead yet (a lost node that still runs) waits for it to let go.
+predecessor that is not dead yet (a lost node that still runs) waits for it to let go.  Inside, the
+driver takes each run's own writer lock (``RUN.h5.lock``, :mod:`cpgjax.io.runlock`, as every writer
+does), which refuses at once a writer outside this sweep (another ``cpgjax sweep`` or ``evolve`` on
+the same file).
 
 **Progress.**  Tasks report the evaluations in their files to a small actor; the driver shows one
 tqdm bar for the whole sweep, and returns each worker's throughput (``workers`` in the summary,
@@ -117,7 +120,7 @@ def holding(specs: Sequence[RunSpec]) -> Iterator[None]:
 
 
 def shard_task(problem_args: dict[str, Any], specs: list[RunSpec], *, shard: int, chunk: int, group: str,
-               progress_actor: Any = None) -> dict[str, Any]:
+               progress_actor: Any = None, allow_other_machine: bool = False) -> dict[str, Any]:
     """One shard, in a Ray worker: lock its runs, resume them from their files, report progress."""
     import jax
 
@@ -135,7 +138,8 @@ def shard_task(problem_args: dict[str, Any], specs: list[RunSpec], *, shard: int
         report(0)
         problem = sweep_problem(problem_args, batch=total_batch(specs))
         s = run_sweep(problem, specs, chunk=chunk, overwrite=False, progress=False, group=group,
-                      callback=lambda step, info: report(info["evaluations"]))
+                      callback=lambda step, info: report(info["evaluations"]),
+                      allow_other_machine=allow_other_machine)
         report(s["evaluations"])
     return {**s, "shard": shard, "host": socket.gethostname(), "pid": pid, "devices": len(jax.devices()),
             "runs": len(specs), "task_time": time.perf_counter() - t0}
@@ -173,7 +177,8 @@ def worker_plan(ray: Any, workers: int | None) -> list[dict[str, Any]]:
 def run_on_ray(problem_args: dict[str, Any], specs: Sequence[RunSpec], *, address: str | None = None,
                workers: int | None = None, chunk: int = 1, overwrite: bool = False, progress: bool = True,
                group: str = "all", max_retries: int = 3, poll: float = 0.2,
-               on_progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+               on_progress: Callable[[dict[str, Any]], None] | None = None,
+               allow_other_machine: bool = False) -> dict[str, Any]:
     """Run the sweep's ``specs`` as Ray tasks; returns the summary of :func:`run_sweep` plus ``workers``.
 
     ``address``: an existing cluster (``ray start --head`` prints it; ``"auto"`` finds a local one);
@@ -189,9 +194,12 @@ def run_on_ray(problem_args: dict[str, Any], specs: Sequence[RunSpec], *, addres
         raise ValueError("workers must be >= 1")
     t_begin = time.perf_counter()
     if overwrite:               # here, not in the tasks: a retried task must resume, not start again
-        for s in specs:
-            if os.path.exists(s.path):
-                os.remove(s.path)
+        from cpgjax.io import runlock
+
+        for s in specs:         # not a file another process is writing (its lock: cpgjax.io.runlock)
+            with runlock.hold(s.path):
+                if os.path.exists(s.path):
+                    os.remove(s.path)
     started = False
     if not ray.is_initialized():
         kw: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
@@ -215,7 +223,8 @@ def run_on_ray(problem_args: dict[str, Any], specs: Sequence[RunSpec], *, addres
             env = {"CPGJAX_DEVICES": str(max(MIN_DEVICES, o["num_cpus"]))}
             refs.append(task.options(**o, max_retries=max_retries, retry_exceptions=False,
                                      runtime_env={"env_vars": env})
-                        .remote(problem_args, part, shard=k, chunk=chunk, group=group, progress_actor=actor))
+                        .remote(problem_args, part, shard=k, chunk=chunk, group=group, progress_actor=actor,
+                                allow_other_machine=allow_other_machine))
         bar = tqdm(total=total, initial=sum(start.values()), desc="sweep (ray)", unit="eval",
                    unit_scale=True, disable=not progress, dynamic_ncols=True)
         try:

@@ -52,6 +52,7 @@ from cpgjax.experiments.evolve import (
     stop_requested,
 )
 from cpgjax.experiments.sweep.plan import MANIFEST, RunSpec
+from cpgjax.io import runlock
 from cpgjax.io.results import Row, RunWriter
 from cpgjax.io.sweepdir import find_runs
 from cpgjax.optim.algorithm import make_algorithm, make_chunk_fn, stack_params
@@ -112,7 +113,8 @@ def check_new_runs(problem: Problem, specs: Sequence[RunSpec]) -> None:
 
 def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, overwrite: bool = False,
               progress: bool = True, stop_after: int | None = None, group: str = "all",
-              callback: Callable[[int, dict[str, Any]], None] | None = None) -> dict[str, Any]:
+              callback: Callable[[int, dict[str, Any]], None] | None = None,
+              allow_other_machine: bool = False) -> dict[str, Any]:
     """Run every spec (skipping complete files, continuing partial ones); returns a summary.
 
     ``group``: ``"all"`` puts every run in one XLA program (one evaluate call per generation);
@@ -120,18 +122,31 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
     ``stop_after``: stop after that many sweep generations (tests of resume).  Unless ``overwrite``, the runs must
     be scored as those already in their sweep folder are (:func:`check_sweep_problem`).  A Ctrl-C stops after
     the chunk in flight, once every computed generation is written (``KeyboardInterrupt``).
+    ``allow_other_machine``: continue runs computed on another machine or with other versions (else refused,
+    :func:`cpgjax.experiments.evolve.open_run`).  Every run file is locked while it is written
+    (:mod:`cpgjax.io.runlock`): another process writing one of them is refused at once.
     """
-    with deferred_sigint():
-        return _run_sweep(problem, specs, chunk=chunk, overwrite=overwrite, progress=progress,
-                          stop_after=stop_after, group=group, callback=callback)
+    locks: dict[str, int] = {}          # run file -> its lock (cpgjax.io.runlock), held while the run is written
+    try:
+        with deferred_sigint():
+            return _run_sweep(problem, specs, chunk=chunk, overwrite=overwrite, progress=progress,
+                              stop_after=stop_after, group=group, callback=callback, locks=locks,
+                              allow_other_machine=allow_other_machine)
+    finally:
+        for path, fd in locks.items():
+            runlock.release(path, fd)
 
 
 def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwrite: bool, progress: bool,
-               stop_after: int | None, group: str, callback: Callable[[int, dict[str, Any]], None] | None
-               ) -> dict[str, Any]:
+               stop_after: int | None, group: str, callback: Callable[[int, dict[str, Any]], None] | None,
+               locks: dict[str, int], allow_other_machine: bool) -> dict[str, Any]:
     from tqdm.auto import tqdm
 
     t_begin = time.perf_counter()
+    # one writer per run file (a lock per run, not per folder: several sweeps, or Ray's workers, may write
+    # different runs of one folder), every one taken before any file is created, replaced or resumed
+    for s in specs:
+        locks[s.path] = runlock.acquire(s.path)
     if not overwrite:
         check_new_runs(problem, specs)
     by_group: dict[tuple, list[RunSpec]] = {}
@@ -154,8 +169,10 @@ def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwr
             p = jax.tree.map(jnp.asarray, algo.params)
             k = run_keys(s.seed)
             completed, state, wall0 = open_run(problem, algo, s.path, p, k[0], resume=not overwrite, overwrite=True,
-                                               init=init, metrics=metrics[algo0.population])
+                                               init=init, metrics=metrics[algo0.population],
+                                               allow_other_machine=allow_other_machine)
             if completed >= algo.generations:
+                runlock.release(s.path, locks.pop(s.path))      # complete: nothing to write
                 skipped += 1
                 continue
             live.append(s)

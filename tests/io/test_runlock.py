@@ -1,0 +1,110 @@
+"""One writer per run file (cpgjax/io/runlock.py): the lock, a second writer refused, a kill -9 not blocking,
+and with two real ``cpgjax`` processes: ``--overwrite`` while another writes, readers while it writes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from cpgjax.errors import ResultsError
+from cpgjax.io import runlock
+from cpgjax.io.results import read_attrs, read_run
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ENV = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", ""), "CPGJAX_DEVICES": "1"}
+
+
+def test_held_then_released_and_a_second_writer_refused(tmp_path):
+    run = tmp_path / "r.h5"
+    assert runlock.holder(run) is None
+    with runlock.hold(run):
+        info = runlock.holder(run)
+        assert info["pid"] == os.getpid() and info["host"]
+        with pytest.raises(ResultsError) as e:           # another open file description: refused like a process
+            runlock.acquire(run)
+        msg = str(e.value)
+        assert "\n" not in msg and str(run) in msg and f"pid {os.getpid()}" in msg and "another --out" in msg
+    assert runlock.holder(run) is None and not os.path.exists(runlock.lock_path(run))
+
+
+def test_a_lock_left_by_kill_9_does_not_block(tmp_path):
+    run = tmp_path / "r.h5"
+    code = ("import sys, time; from cpgjax.io import runlock; runlock.acquire(sys.argv[1]); print('held', flush=True);"
+            " time.sleep(600)")
+    p = subprocess.Popen([sys.executable, "-c", code, str(run)], stdout=subprocess.PIPE, text=True, env=ENV)
+    try:
+        assert p.stdout.readline().strip() == "held"
+        assert runlock.holder(run)["pid"] == p.pid
+        with pytest.raises(ResultsError, match=f"pid {p.pid}"):
+            runlock.acquire(run)
+        p.send_signal(signal.SIGKILL)
+        p.wait(timeout=30)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert os.path.exists(runlock.lock_path(run))            # left behind, with the dead writer's pid in it ...
+    assert runlock.holder(run) is None                        # ... but nobody holds it
+    with runlock.hold(run):
+        assert runlock.holder(run)["pid"] == os.getpid()
+
+
+def _cpgjax(*argv: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "cpgjax.cli", *argv], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=ENV, cwd=ROOT)
+
+
+def _completed(path) -> int:
+    try:
+        return int(read_attrs(path)["completed"])
+    except Exception:  # noqa: BLE001 - not there yet
+        return -1
+
+
+def test_two_real_processes_one_file(tmp_path):
+    """A writes; B (``--overwrite``, another seed) is refused with one line naming the file and A, exit 2, and the
+    file stays A's; readers read A's complete generations and say that it is still going; A killed -9, the next
+    writer goes ahead."""
+    out = tmp_path / "same.h5"
+    a = _cpgjax("evolve", "analytic:sphere:4", "--population", "8", "--generations", "100000", "--seed", "0",
+                "--quiet", "--out", str(out))
+    try:
+        deadline = time.monotonic() + 180
+        while _completed(out) < 3 and a.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert a.poll() is None and _completed(out) >= 3, "the first writer did not get going"
+        created = read_attrs(out)["created"]
+
+        b = _cpgjax("evolve", "analytic:sphere:4", "--population", "8", "--generations", "20", "--seed", "5",
+                    "--quiet", "--out", str(out), "--overwrite")
+        _, err = b.communicate(timeout=180)
+        assert b.returncode == 2, err
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and str(out) in lines[0] and f"pid {a.pid}" in lines[0], err
+        attrs = read_attrs(out)
+        assert attrs["seed"] == 0 and attrs["created"] == created       # nothing changed: still A's run
+
+        run = read_run(out)                                   # a reader needs no lock, sees complete rows
+        assert run.writer is not None and run.writer["pid"] == a.pid
+        assert run.genomes.shape[0] == run.fitness.shape[0] == run.completed >= 3
+        best = _cpgjax("best", str(out))
+        bout, berr = best.communicate(timeout=180)
+        assert best.returncode == 0, berr
+        assert "still being written" in berr and f"pid {a.pid}" in berr and "best fitness" in bout
+
+        a.send_signal(signal.SIGKILL)
+        a.wait(timeout=30)
+    finally:
+        if a.poll() is None:
+            a.kill()
+    assert read_run(out).writer is None
+    c = _cpgjax("evolve", "analytic:sphere:4", "--population", "8", "--generations", "5", "--seed", "5",
+                "--quiet", "--out", str(out), "--overwrite")
+    _, err = c.communicate(timeout=180)
+    assert c.returncode == 0, err                             # the lock left by kill -9 did not block
+    assert read_attrs(out)["seed"] == 5 and read_run(out).completed == 5
+    assert not os.path.exists(runlock.lock_path(out))
