@@ -10,9 +10,10 @@ robot by a floating base and one angle per revolute joint (`sim.tree`), so that 
    CM, and its ``M = L^T D L`` factorization, which keeps the tree's sparsity (no fill-in, as MuJoCo's
    ``mj_factorM``);
 2. the bias forces (gravity, Coriolis, gyroscopic) by recursive Newton-Euler with zero joint accelerations;
-3. ``M qdd = tau - C + J^T f_prev``: the servo's PI torque, the joint limits and every contact's force of the
-   previous step (the warm start); the servo's derivative, implicit on its joint's exact inverse inertia
-   ``(M^-1)_jj``; then each contact vertex's force from the contact law against the vertex's real inverse mass
+3. ``(M + dt D) qdd = tau - C + J^T f_prev``: the servos' torque (saturated) and the joint limits on the joint
+   rates at the start of the step, their dampers ``D`` implicit (coupled: the whole leg's response; a saturated
+   servo adds none, as in MuJoCo's implicit integrators), and every contact's force of the previous step (the
+   warm start); then each contact vertex's force from the contact law against the vertex's real inverse mass
    ``K_c = J_c M^-1 J_c^T``, and the change of the forces added to ``qdd``;
 4. semi-implicit Euler on the generalized velocities and positions, then forward kinematics for the bodies'
    poses and velocities (``State.x, q, v, w``: what the rest of cpgjax reads, as from the other pipeline).
@@ -38,7 +39,7 @@ import numpy as np
 from cpgjax.sim.contact import contact_frame, contact_law
 from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import cross, dot, quat_integrate, quat_to_mat
-from cpgjax.sim.servo import servo_pi, servo_torques
+from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
 
 # ---------------------------------------------------------------------------------------------------------
 # static helpers on the item axis (the one before the batch axis)
@@ -473,6 +474,21 @@ def step(model, state, ctrl, var=None):
     kin = Kin(model, state.x, state.q, state.v, state.w)
     masses = _masses(model, var, lv)
     M, Iw = mass_matrix(model, kin, masses)
+    # servo and joint limits: their torques on the rates at the start of the step, their dampers implicit in
+    # the joint-space inertia (M + dt D), as MuJoCo's implicit integration does (a saturated servo adds none)
+    tau_pi, err = servo_pi(model, state.gq, target, state.e_int, gain)
+    tau_j = limit_torques(model, state.gq, state.gv, implicit=False)
+    if model.nj:
+        lo, hi = model.j_lo[:, None], model.j_hi[:, None]
+        damp = jnp.where((state.gq > hi) | (state.gq < lo), model.limit_c, 0.0)
+        if model.n_ctrl:
+            cj = model.ctrl_joint
+            tau_s = servo_torques(model, tau_pi, state.gv[cj], target_rate, gain, implicit=False)
+            _, _, kd, tmax = servo_gains(model, gain, implicit=False)
+            tau_j = tau_j.at[cj].add(tau_s)
+            damp = damp.at[cj].add(jnp.where(jnp.abs(tau_s) < tmax, kd, 0.0))
+        for lvl in range(1, lv.depth + 1):
+            M["d"][lvl] = M["d"][lvl] + dt * take(damp, lv.joint[lvl])
     fac = Factor(model, M)
     rates = to_levels(model, state.gv)
     Fi, Ni = inertial_wrenches(model, kin, masses, Iw, rates)
@@ -484,41 +500,15 @@ def step(model, state, ctrl, var=None):
     else:
         Fi, Ni = [-f for f in Fi], [-n for n in Ni]
     tau = project(model, kin, Fi, Ni)
-    # servo (PI explicit) and joint limits, their dampers implicit on the joint's exact inverse inertia
-    inv_ieff = _joint_inverse_inertia(model, fac)
-    tau_pi, err = servo_pi(model, state.gq, target, state.e_int, gain)
-    tau_j = limit_torques(model, state.gq, state.gv, inv_ieff)
-    if model.n_ctrl:
-        tau_j = tau_j.at[model.ctrl_joint].add(tau_pi)
     if model.nj:
         tau = _add(tau, to_levels(model, tau_j))
     qdd = fac.solve(tau)
-    if model.n_ctrl:                            # the servos' derivative: backward Euler on the rate the step gives
-        cj = model.ctrl_joint
-        pred = state.gv[cj] + dt * from_levels(model, qdd)[cj]
-        extra = servo_torques(model, tau_pi, pred, target_rate, gain, inv_ieff[cj]) - tau_pi
-        qdd = _add(qdd, fac.solve(to_levels(model, jnp.zeros_like(state.gv).at[cj].set(extra))))
     if con is not None:
         fc, anchor, fn, qdd = _contact_step(model, state, kin, fac, con, qdd, var)
     else:
         fc, anchor, fn = state.f_c, state.anchor, state.f_n
     return _integrate(model, state, qdd, dt)._replace(
         e_int=state.e_int + dt * err, anchor=anchor, f_n=fn, f_c=fc, n=state.n + 1)
-
-
-def _joint_inverse_inertia(model, fac):
-    """``(M^-1)_jj`` [nj, B]: 1 / the inertia each joint's own torque meets in the articulated robot."""
-    lv = model.levels
-    if not model.nj:
-        return None
-    out = {}
-    for lvl in range(1, lv.depth + 1):
-        items = np.arange(len(lv.bodies[lvl]))
-        one = jnp.ones_like(fac.Dinv[lvl])
-        y, yr, anc = fac.half_solve(lvl, items, {lvl: one}, None)
-        out[lvl] = fac.kdot((y, yr), (y, yr), anc)
-    _, inv = _joint_perm(lv)
-    return take(jnp.concatenate([out[lvl] for lvl in range(1, lv.depth + 1)]), inv)
 
 
 def _contact_step(model, state, kin, fac, con, qdd, var):

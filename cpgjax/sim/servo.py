@@ -13,19 +13,18 @@ import jax.numpy as jnp
 from cpgjax.sim.joints import implicit_damping
 
 
-def servo_gains(model, gain=None, inv_ieff=None):
+def servo_gains(model, gain=None, implicit=True):
     """kp, ki, kd (implicit, see `joints.implicit_damping`) and the torque limit [nctrl, B|1].
 
-    ``gain`` [nctrl, B] (a :class:`~cpgjax.sim.variation.Variation`) scales kp, ki and kd per robot;
-    ``inv_ieff`` [nctrl, B]: each servo's exact 1/I_eff (exact joints), in place of the free-body bound.
+    ``gain`` [nctrl, B] (a :class:`~cpgjax.sim.variation.Variation`) scales kp, ki and kd per robot.
+    ``implicit=False``: the nominal kd (exact joints put ``dt kd`` into the joint-space inertia instead).
     """
     cj = model.ctrl_joint
     kp, ki, tmax = (g[cj][:, None] for g in (model.j_kp, model.j_ki, model.j_taumax))
-    if inv_ieff is not None:
-        c = model.j_kd[cj][:, None] * (1.0 if gain is None else gain)
+    if not implicit:
+        kd = model.j_kd[cj][:, None]
         if gain is not None:
-            kp, ki = kp * gain, ki * gain
-        kd = c / (1.0 + model.dt * c * inv_ieff)
+            kp, ki, kd = kp * gain, ki * gain, kd * gain
     elif gain is None:
         kd = implicit_damping(model, model.j_kd)[cj]
     else:
@@ -42,7 +41,7 @@ def servo_pi(model, angle, target, e_int, gain=None):
     return kp * err + ki * e_int, err
 
 
-def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, inv_ieff=None):
+def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, implicit=True):
     """Servo torque [nctrl, B]: ``clip(PI + kd' (dq*/dt - q'), -tau_max, tau_max)``.
 
     The derivative is backward Euler on the joint's two bodies: ``q'`` [nctrl, B] is the joint
@@ -50,6 +49,8 @@ def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, inv_ieff=Non
     ``kd' = kd / (1 + dt kd / I_eff)`` (`joints.implicit_damping`), so that in slow motion the
     damper delivers the nominal ``kd``.  (With the rate at the start of the step in place of
     ``q'`` it would deliver ``kd'``, 0.45 kd on the quadruped's knee at 0.5 ms.)
+    ``implicit=False`` (exact joints, `sim.articulated`): the nominal kd on the rate given; the pipeline puts
+    ``dt kd`` into its joint-space inertia, so that the damper acts on the end-of-step rate of the whole robot.
     """
-    _, _, kd, tmax = servo_gains(model, gain, inv_ieff)
+    _, _, kd, tmax = servo_gains(model, gain, implicit)
     return jnp.clip(tau_pi + kd * (target_rate - rate_pred), -tmax, tmax)
