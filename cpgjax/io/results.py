@@ -15,7 +15,7 @@ Layout (``format = "cpgjax-run"``, ``format_version = 1``)::
         problem, n_genes, lower, upper
         meta                     JSON of Problem.meta; each entry is also an attribute of its
                                  own (model_path, model_text (the .wl file's text), time,
-                                 terrain, delta, dt, n_dof, harmonics, ...)
+                                 terrain, delta, dt, pipeline, n_dof, harmonics, ...)
         versions                 JSON {python, cpgjax, jax, jaxlib, numpy, h5py, platform, device}
         created                  ISO time the run was created
     /genomes        float32 [G_done, N, n_genes]  every genome evaluated in each generation
@@ -265,6 +265,12 @@ class Run:
     @property
     def completed(self) -> int:
         return int(self.attrs["completed"])
+
+    @property
+    def pipeline(self) -> str:
+        """The physics pipeline the run was scored on (``cpgjax.sim.model.PIPELINES``); runs made before it was
+        recorded ran on the thesis's, "springs"."""
+        return str(self.meta.get("pipeline") or "springs")
 
     def valid_fitness(self) -> np.ndarray:
         """Fitness with diverged / non-finite entries as NaN."""
