@@ -98,6 +98,9 @@ def variant(model, dt: float | None = None, joint_spring=None):
     MuJoCo's exported model depends on neither: this changes only our side of a comparison.
     """
     changes = {}
+    if joint_spring is not None and model.pipeline != "springs":
+        raise ValueError(f"--joint-spring sets the pivot springs of the springs pipeline (eq. 3.6); this model runs "
+                         f"on the {model.pipeline} pipeline, whose joints have none")
     if dt is not None:
         changes["dt"] = float(dt)
     if joint_spring is not None:

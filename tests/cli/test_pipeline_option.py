@@ -75,3 +75,15 @@ def test_sweep_gives_every_shard_the_pipeline(tmp_path):
     assert pa["pipeline"] == "exact"        # the dict every shard (in process or a Ray task) builds its problem from
     problem = sweep_problem(pa)             # builds the model; traces nothing
     assert problem.meta["pipeline"] == "exact"
+
+
+def test_pivot_springs_belong_to_the_springs_pipeline(tmp_path, capsys):
+    from cpgjax.crosscheck.transfer import variant
+    from cpgjax.io.wl import load_model
+
+    assert variant(load_model("models/quadruped.wl"), joint_spring=(1e5, 100)).alpha == 1e5
+    with pytest.raises(ValueError, match="exact pipeline, whose joints have none"):
+        variant(load_model("models/quadruped.wl", pipeline="exact"), joint_spring=(1e5, 100))
+    assert main(["crosscheck", "models/quadruped.wl", "--pipeline", "exact", "--joint-spring", "1e5", "100",
+                 "--out", str(tmp_path / "out")]) == 2
+    assert "--joint-spring sets the pivot springs" in capsys.readouterr().err

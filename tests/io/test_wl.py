@@ -417,7 +417,8 @@ BAD = [
      "log file 'x.log' is already used at line 11"),
     ("unknown-pipeline", OBJ_A + "Pipeline exakt\n", 6,
      "unknown pipeline 'exakt' (did you mean 'exact'?); choose one of springs, exact (usage: Pipeline springs|exact)"),
-    ("pipeline-without-value", "Pipeline\n" + OBJ_A, 1, "Pipeline expects one pipeline (springs or exact), got 'nothing'"),
+    ("pipeline-without-value", "Pipeline\n" + OBJ_A, 1,
+     "Pipeline expects one pipeline (springs or exact), got 'nothing'"),
     ("pipeline-twice", "Pipeline exact\nPipeline springs\n" + OBJ_A, 2, "Pipeline given twice (first at line 1)"),
 ]
 
