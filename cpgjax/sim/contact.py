@@ -106,8 +106,8 @@ class _Frame:
         return matTvec(Rc, self.n), matTvec(Rc, self.t1), matTvec(Rc, self.t2)
 
 
-def _frame(model, cp, var):
-    """Depth [nc, B] and the :class:`_Frame` of the terrain under the contact vertices."""
+def contact_frame(model, cp, var):
+    """Depth [nc, B] and the :class:`_Frame` of the terrain under the contact vertices at ``cp`` [3, nc, B]."""
     if model.terrain.flat:  # fast path: z_g = 0, n = (0, 0, 1), no lookup
         return -cp[2], _Frame()
     sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
@@ -138,7 +138,7 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     cp, rc = p[:, model.ct_pt], r[:, model.ct_pt]
     if len(cb) == 0:                             # a model without contact vertices
         return cp, cp[0], anchor, f_prev
-    depth, fr = _frame(model, cp, var)
+    depth, fr = contact_frame(model, cp, var)
     touch = depth > 0
     tf = touch.astype(depth.dtype)
     share = []                                  # touching vertices of the vertex's body (>= 1)
@@ -153,12 +153,36 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     Rc = R[:, :, cb]
     nb_, t1b, t2b = fr.in_body(Rc)
     vstar = pv[:, model.ct_pt] + dt * (a[:, cb] + cross(alpha[:, cb], rc))
-    # normal
     kn = share * _quad(K, nb_, nb_)
+    carry_n = dt * (share * inv_m - kn) * f_prev
+    k11 = share * _quad(K, t1b, t1b)
+    k12 = share * _quad(K, t1b, t2b)
+    k22 = share * _quad(K, t2b, t2b)
+    fc, new_anchor, fn = contact_law(model, depth, fr, cp, anchor, fr.comp(vstar), (kn, k11, k12, k22), carry_n,
+                                     None, var)
+    return fc, depth, new_anchor, fn
+
+
+def contact_law(model, depth, fr, cp, anchor, vs, k, carry_n, carry_t=None, var=None):
+    """Eq. 3.7's ground and the friction bristle, solved implicitly at each touching vertex: the one contact law
+    of both pipelines (the springs' free bodies, :func:`contact_forces`; exact joints, `sim.articulated`).
+
+    ``depth`` [nc, B] and the terrain frame ``fr`` under the vertices at ``cp`` [3, nc, B]; ``anchor`` [3, nc, B]
+    the bristles' anchors; ``vs = (v_n, v_1, v_2)``: each vertex's velocity at the end of the step under every
+    force but its own contact force, in the frame; ``k = (kn, k11, k12, k22)``: the frame components of its
+    inverse-mass matrix (``n.K.n``, ``t1.K.t1``, ``t1.K.t2``, ``t2.K.t2``, already scaled for the vertices that
+    push together); ``carry_n`` [nc, B]: added to the predicted normal velocity (the part of the prediction that
+    the pipeline counts for the vertex's force of the previous step), ``carry_t = (c1, c2)`` likewise for the
+    tangential velocity (``None``: nothing).  Returns the world contact forces [3, nc, B], the new anchors and the
+    normal forces [nc, B].
+    """
+    dt = model.dt
+    kn, k11, k12, k22 = k
+    vs_n, vs_1, vs_2 = vs
+    touch = depth > 0
     A, B = model.ground_A, model.ground_B
     fa = A * depth
-    vs_n, vs_1, vs_2 = fr.comp(vstar)
-    vn = vs_n + dt * kn * fa + dt * (share * inv_m - kn) * f_prev
+    vn = vs_n + dt * kn * fa + carry_n
     fn = jnp.where(touch, jnp.maximum(fa - B * vn / (1.0 + dt * B * kn), 0.0), 0.0)
     # friction: f = -(K + I/(dt b'))^-1 (v* + k z / b') / dt,  b' = b + k dt (the bristle implicit too)
     z = cp - anchor
@@ -167,11 +191,12 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
         kb = kb * var.bristle
     bp = model.friction_b + kb * dt
     z_n, z_1, z_2 = fr.comp(z)
+    if carry_t is not None:
+        vs_1, vs_2 = vs_1 + carry_t[0], vs_2 + carry_t[1]
     s1, s2 = vs_1 + (kb / bp) * z_1, vs_2 + (kb / bp) * z_2
     reg = 1.0 / (dt * bp)
-    k11 = share * _quad(K, t1b, t1b) + reg
-    k12 = share * _quad(K, t1b, t2b)
-    k22 = share * _quad(K, t2b, t2b) + reg
+    k11 = k11 + reg
+    k22 = k22 + reg
     g = -1.0 / (dt * (k11 * k22 - k12 * k12))
     f1 = g * (k22 * s1 - k12 * s2)
     f2 = g * (k11 * s2 - k12 * s1)
@@ -188,4 +213,4 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     trail = jnp.minimum(1.0, lim / zmag)
     trailed = cp - fr.world(jnp.zeros_like(z_n), trail * z_1, trail * z_2)
     new_anchor = jnp.where(touch, jnp.where(stick, anchor, trailed), cp)
-    return jnp.where(touch, fr.world(fn, f1, f2), 0.0), depth, new_anchor, fn
+    return jnp.where(touch, fr.world(fn, f1, f2), 0.0), new_anchor, fn

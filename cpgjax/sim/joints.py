@@ -35,20 +35,24 @@ def joint_angles(model, R, w):
     return angle, rate, axis
 
 
-def implicit_damping(model, c):
+def implicit_damping(model, c, inv_ieff=None):
     """Damping coefficient about the joint axes integrated implicitly: c / (1 + dt c / I_eff) [nj, 1].
 
     1/I_eff = a.(Ia^-1 + Ib^-1).a in the body frames (the axis is fixed in both), a
-    conservative bound: the relative rotation of two free bodies about their CMs.
+    conservative bound: the relative rotation of two free bodies about their CMs.  ``inv_ieff``
+    [nj, B]: the exact 1/I_eff of each joint in the articulated robot (exact joints, `sim.articulated`).
     """
+    if inv_ieff is not None:
+        return c[:, None] / (1.0 + model.dt * c[:, None] * inv_ieff)
     return (c / (1.0 + model.dt * c * model.j_inv_ieff))[:, None]
 
 
-def limit_torques(model, angle, rate):
-    """Stiff penalty torque [nj, B] beyond the joint limits (implicit damper)."""
+def limit_torques(model, angle, rate, inv_ieff=None):
+    """Stiff penalty torque [nj, B] beyond the joint limits (implicit damper; ``inv_ieff``: see
+    :func:`implicit_damping`)."""
     lo, hi = model.j_lo[:, None], model.j_hi[:, None]
     over = jnp.maximum(angle - hi, 0.0)
     under = jnp.minimum(angle - lo, 0.0)
     active = (over > 0) | (under < 0)
-    c = implicit_damping(model, model.limit_c * jnp.ones(model.nj))
+    c = implicit_damping(model, model.limit_c * jnp.ones(model.nj), inv_ieff)
     return -model.limit_k * (over + under) - jnp.where(active, c * rate, 0.0)

@@ -105,6 +105,7 @@ class Model:
     limit_k: float = LIMIT_STIFFNESS
     limit_c: float = LIMIT_DAMPING
     pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.step.step` dispatches)
+    tree: object = field(default=None, repr=False)  # the kinematic tree of exact joints (`sim.tree.Tree`)
 
     @property
     def nb(self) -> int:
@@ -134,10 +135,17 @@ class Model:
         return self.body_names.index(name)
 
     def replace(self, **changes) -> Model:
-        """A copy with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``)."""
+        """A copy with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``, ``pipeline``)."""
         import dataclasses
 
-        return dataclasses.replace(self, **changes)
+        new = dataclasses.replace(self, **changes)
+        if new.pipeline == "exact" and (new.tree is None or "pipeline" in changes):
+            from cpgjax.sim.tree import build_tree
+
+            if new.description is None:
+                raise ValueError("a Model needs its Description to run on exact joints")
+            new.tree = build_tree(new, new.description)
+        return new
 
 
 # ----------------------------------------------------------------------------- shapes
@@ -366,7 +374,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     alpha, beta = desc.joint_spring or (DEFAULT_ALPHA, DEFAULT_BETA)
     friction_k, friction_b = desc.friction_spring or (DEFAULT_FRICTION_K, DEFAULT_FRICTION_B)
     tdef = desc.terrain
-    return Model(
+    model = Model(
         body_names=tuple(names), mass=mass, inertia=inertia, inv_inertia=inv_inertia,
         fixed=np.asarray(fixed, bool), x0=x0, q0=q0, cm_local=np.stack(cms, -1),
         pt_body=pt_body, pt_local=pt_local, pt_src=pt_src, pt_start=pt_start, sp_a=sp_a, sp_b=sp_b,
@@ -388,3 +396,8 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,
     )
+    if pipe == "exact":
+        from cpgjax.sim.tree import build_tree
+
+        model.tree = build_tree(model, desc)
+    return model

@@ -13,14 +13,20 @@ import jax.numpy as jnp
 from cpgjax.sim.joints import implicit_damping
 
 
-def servo_gains(model, gain=None):
+def servo_gains(model, gain=None, inv_ieff=None):
     """kp, ki, kd (implicit, see `joints.implicit_damping`) and the torque limit [nctrl, B|1].
 
-    ``gain`` [nctrl, B] (a :class:`~cpgjax.sim.variation.Variation`) scales kp, ki and kd per robot.
+    ``gain`` [nctrl, B] (a :class:`~cpgjax.sim.variation.Variation`) scales kp, ki and kd per robot;
+    ``inv_ieff`` [nctrl, B]: each servo's exact 1/I_eff (exact joints), in place of the free-body bound.
     """
     cj = model.ctrl_joint
     kp, ki, tmax = (g[cj][:, None] for g in (model.j_kp, model.j_ki, model.j_taumax))
-    if gain is None:
+    if inv_ieff is not None:
+        c = model.j_kd[cj][:, None] * (1.0 if gain is None else gain)
+        if gain is not None:
+            kp, ki = kp * gain, ki * gain
+        kd = c / (1.0 + model.dt * c * inv_ieff)
+    elif gain is None:
         kd = implicit_damping(model, model.j_kd)[cj]
     else:
         kp, ki = kp * gain, ki * gain
@@ -36,7 +42,7 @@ def servo_pi(model, angle, target, e_int, gain=None):
     return kp * err + ki * e_int, err
 
 
-def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None):
+def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, inv_ieff=None):
     """Servo torque [nctrl, B]: ``clip(PI + kd' (dq*/dt - q'), -tau_max, tau_max)``.
 
     The derivative is backward Euler on the joint's two bodies: ``q'`` [nctrl, B] is the joint
@@ -45,5 +51,5 @@ def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None):
     damper delivers the nominal ``kd``.  (With the rate at the start of the step in place of
     ``q'`` it would deliver ``kd'``, 0.45 kd on the quadruped's knee at 0.5 ms.)
     """
-    _, _, kd, tmax = servo_gains(model, gain)
+    _, _, kd, tmax = servo_gains(model, gain, inv_ieff)
     return jnp.clip(tau_pi + kd * (target_rate - rate_pred), -tmax, tmax)

@@ -32,6 +32,28 @@ class State(NamedTuple):
     n: jnp.ndarray
 
 
+class ExactState(NamedTuple):
+    """:class:`State` of the exact-joint pipeline (`sim.articulated`): the same fields, which it keeps as the
+    forward kinematics of its generalized coordinates, plus those coordinates and the contact forces.
+
+    gq, gv: [nj, B] joint angles and rates (the `.wl` file's sign: body_b relative to body_a about the axis);
+    the floating base is the tree root's x, q, v, w.  f_c: [3, nc, B] each contact vertex's force of the last
+    step (world frame), the warm start of the next step's contact solve.
+    """
+
+    x: jnp.ndarray
+    q: jnp.ndarray
+    v: jnp.ndarray
+    w: jnp.ndarray
+    e_int: jnp.ndarray
+    anchor: jnp.ndarray
+    f_n: jnp.ndarray
+    n: jnp.ndarray
+    gq: jnp.ndarray
+    gv: jnp.ndarray
+    f_c: jnp.ndarray
+
+
 def sim_time(model, state: State):
     """Simulated time [] of ``state``: the integer step count times ``dt`` (one rounding, no drift)."""
     return state.n.astype(state.x.dtype) * model.dt
@@ -49,11 +71,15 @@ def initial_state(model, batch: int = 1, dtype=jnp.float32) -> State:
     for k, pt in enumerate(model.ct_pt):
         b = model.pt_body[pt]
         anchors[:, k] = x0[:, b] + quat_to_mat_np(model.q0[:, b]) @ model.pt_local[:, pt]
-    return State(
+    s = State(
         x=tile(model.x0), q=tile(model.q0), anchor=tile(anchors), v=jnp.zeros((3, nb, batch), dtype),
         w=jnp.zeros((3, nb, batch), dtype), e_int=jnp.zeros((model.n_ctrl, batch), dtype),
         f_n=jnp.zeros((len(model.ct_pt), batch), dtype), n=jnp.zeros((), jnp.int32),
     )
+    if model.pipeline == "exact":
+        return ExactState(*s, gq=tile(model.j_q0), gv=jnp.zeros((model.nj, batch), dtype),
+                          f_c=jnp.zeros((3, len(model.ct_pt), batch), dtype))
+    return s
 
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.sim import articulated
 from cpgjax.sim.bodies import accelerations, force_accelerations, integrate, torque_accelerations
 from cpgjax.sim.contact import contact_body_ranges, contact_forces
 from cpgjax.sim.joints import joint_angles, limit_torques, pivot_spring_forces
@@ -98,7 +99,11 @@ def step(model, state, ctrl, var=None):
     """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``.
 
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (``None``: the nominal robot).
+    A model built with ``pipeline="exact"`` runs on exact joints (`sim.articulated`); the thesis's pipeline,
+    below, holds them with pivot springs.
     """
+    if model.pipeline == "exact":
+        return articulated.step(model, state, ctrl, var)
     scale = None if var is None else var.mass
     R, r, p, pv, force, torque, err, joints = forces(model, state, ctrl, var)
     a, alpha = accelerations(model, R, state.w, force, torque, scale)
