@@ -127,3 +127,30 @@ def test_report_and_transfer_name_the_pipeline(run_path):
     text = transfer.table(rs, 1)
     assert "| c/s0 | thesis (springs) |" in text and "| c/s1 | thesis (exact) |" in text
     assert text.index("| thesis | 1 |") < text.index("| thesis, exact pipeline | 1 |")
+
+
+# ----------------------------------------------------------------------------- end to end on the exact pipeline
+# (slow: the exact pipeline's programs took 1-2 min each to compile on the 2 shared cores; `make test-all` runs them)
+
+@pytest.mark.slow
+def test_simulate_runs_on_the_exact_pipeline(capsys):
+    assert main(["simulate", WL, "--time", "0.1", "--pipeline", "exact"]) == 0
+    out = capsys.readouterr().out
+    assert "exact pipeline, dt 0.002 s" in out and "diverged  no" in out
+
+
+@pytest.mark.slow
+def test_evolve_two_generations_on_the_exact_pipeline(tmp_path, capsys):
+    from cpgjax.render.poses import load_run
+
+    out = tmp_path / "exact.h5"
+    assert main(["evolve", WL, "--time", "0.1", "--population", "4", "--generations", "2", "--pipeline", "exact",
+                 "--out", str(out), "--quiet"]) == 0
+    a, run = read_attrs(out), read_run(out)
+    assert (a["pipeline"], a["dt"], run.completed, run.pipeline) == ("exact", 0.002, 2, "exact")
+    assert load_run(str(out))[0].pipeline == "exact"                     # rebuilt on the pipeline it recorded
+    capsys.readouterr()
+    assert main(["evolve", WL, "--time", "0.1", "--population", "4", "--generations", "3", "--pipeline", "springs",
+                 "--out", str(out), "--resume", "--quiet"]) == 2
+    assert "--pipeline springs differs from the run's exact" in capsys.readouterr().err
+    assert read_run(out).completed == 2
