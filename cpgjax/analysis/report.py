@@ -331,7 +331,8 @@ def _setting_rows(stats: list[CellStats]) -> list[str]:
 
 def evaluation_line(files: Sequence[str]) -> str:
     """How the sweep's runs scored a controller: the thesis's one exact episode, or the robust evaluation and its
-    ``--perturb`` ranges (a robust sweep's fitness is another quantity than the thesis's: compare ratios)."""
+    ``--perturb`` ranges (a robust sweep's fitness is another quantity than the thesis's: compare ratios), and on
+    which physics pipeline (runs that record none ran on the thesis's, springs)."""
     kinds: dict[str, int] = {}
     for p in files:
         meta = json.loads(read_attrs(p).get("meta") or "{}")      # the attributes only: no arrays read
@@ -342,6 +343,8 @@ def evaluation_line(files: Sequence[str]) -> str:
                 f"{k}={('on' if v else 'off') if isinstance(v, bool) else f'{v:g}'}" for k, v in pert.items()) + "`)"
         else:
             ev = "thesis (one exact episode per controller)"
+        if meta.get("model_text"):                                 # a simulated model (not an analytic problem)
+            ev += f" on the {meta.get('pipeline') or 'springs'} pipeline"
         kinds[ev] = kinds.get(ev, 0) + 1
     if len(kinds) == 1:
         return f"Evaluation: {next(iter(kinds))}."

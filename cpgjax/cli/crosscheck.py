@@ -36,6 +36,8 @@ def register(subparsers: Any) -> None:
                         "engine has with itself: the ceiling)")
     c.add_argument("--seed", type=o.seed, default=0, help="random seed (default 0)")
     _variant_options(c)
+    o.pipeline_option(c, "the model file's Pipeline, else springs; our simulator's side only, MuJoCo's model does "
+                         "not depend on it")
     c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
     c.set_defaults(func=cmd_crosscheck)
 
@@ -58,6 +60,8 @@ def register(subparsers: Any) -> None:
                    help="summary rows per evaluation mode (default), or per setting of a sweep (its cell folders: "
                         "which GA settings and baselines evolve gaits that carry over)")
     _variant_options(t)
+    o.pipeline_option(t, "each run's, as it recorded; our side's replays only (MuJoCo's model does not depend on "
+                         "it, and --pick validated validates on the run's own)")
     t.add_argument("--out", default=None, metavar="DIR", help="write transfer.md, transfer.json and transfer.png here")
     t.add_argument("--json", action="store_true", help="print one JSON object with the summary instead of the table")
     t.set_defaults(func=cmd_transfer)
@@ -96,7 +100,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     o.check_output_dir(args.out)
     from cpgjax.crosscheck.transfer import variant
 
-    model = variant(load_model(args.model, terrain=args.terrain), args.dt, args.joint_spring)
+    model = variant(load_model(args.model, terrain=args.terrain, pipeline=args.pipeline), args.dt, args.joint_spring)
     here = os.path.dirname(os.path.abspath(args.model))
     trot = os.path.join(here, "quadruped-trot.ctl")
     base = args.perturb_ctl or (trot if os.path.exists(trot) and model.n_ctrl == 8 else None)
@@ -145,10 +149,13 @@ def cmd_transfer(args: argparse.Namespace) -> int:
                     f"seed {v.seed})")
     with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
-                                       dt=args.dt, joint_spring=args.joint_spring, pick=pick,
-                                       progress=lambda _: bar.update())
+                                       dt=args.dt, joint_spring=args.joint_spring, pipeline=args.pipeline,
+                                       pick=pick, progress=lambda _: bar.update())
     summary = transfer.summary(replays, args.by)
     summary["pick"] = args.pick
+    if args.pipeline is not None:
+        here.append(f"{args.pipeline} pipeline")
+        summary["pipeline"] = args.pipeline
     if args.dt is not None:
         here.append(f"step {args.dt * 1e3:g} ms")
         summary["dt"] = args.dt

@@ -22,7 +22,7 @@ GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossov
 SEARCH_OPTIONS = ("method", "samples", "batch", "M", "width_end", "seed", "chunk")
 ES_OPTIONS = ("method", "samples", "population", "sigma", "lr", "seed", "chunk")
 ES_METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")   # cpgjax.optim.es.METHODS (no import at start-up)
-PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb")
+PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline")
 
 
 def register(subparsers: Any) -> None:
@@ -56,6 +56,7 @@ def register(subparsers: Any) -> None:
                             "jitter 1e-3, fall_ends on, fall_zero off: on, a fall forfeits the episode; "
                             "fall_survival off: on, a fall scales the episode's score by the share of it "
                             "before the fall)")
+        o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
         p.add_argument("--seed", type=o.seed, default=None, help=f"random seed (default {d.seed})")
         p.add_argument("--chunk", type=o.count, default=None,
                        help=f"generations per jitted chunk; a kill loses at most the chunk in flight "
@@ -121,6 +122,7 @@ def register(subparsers: Any) -> None:
                         "perturbed episodes, the same for each, the highest mean kept (docs/evolution.md)")
     o.validation_options(p)
     p.add_argument("--seed", type=o.seed, default=0, help="validation: random seed of its episodes (default 0)")
+    o.pipeline_option(p, f"{o.RUN_PIPELINE}; --validate only")
     p.set_defaults(func=cmd_best)
 
     p = subparsers.add_parser("plot", help="fitness per generation of one or more runs (Fig. 6.5 style)")
@@ -248,6 +250,8 @@ def cmd_best(args: argparse.Namespace) -> int:
     from cpgjax.io.results import read_run, writing_note
 
     o.check_output_file(args.ctl, "--ctl")
+    if args.pipeline is not None and not args.validate:
+        raise ValueError("--pipeline is for --validate (the run's best is the score it recorded)")
     run = read_run(args.run)
     note = writing_note(run.path, run.attrs, run.writer) if run.writer is not None else None
     if note:
@@ -257,7 +261,9 @@ def cmd_best(args: argparse.Namespace) -> int:
         from cpgjax.experiments.validate import validate
 
         v = o.validation(args)
-        ch = validate(run, v)
+        if args.pipeline is not None and args.pipeline != run.pipeline:
+            print(f"{args.run}: validating on the {args.pipeline} pipeline, not the run's {run.pipeline}")
+        ch = validate(run, v, pipeline=args.pipeline)
         print(f"{args.run}: validated {len(ch.scores)} candidates over {v.episodes} perturbed episodes (seed {v.seed}):"
               f" the best recorded one ({fit:.6f}) scores {ch.scores[0]:.6f}; the champion scores {ch.score:.6f}")
         gen, idx, fit, genome = ch.generation, ch.index, ch.recorded, ch.genome
@@ -267,7 +273,7 @@ def cmd_best(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.run}: the run does not record n_dof and harmonics: cannot write a .ctl")
     what = "champion" if args.validate else "best"
     print(f"{args.run}: {what} fitness {fit:.6f} at generation {gen}, individual {idx} "
-          f"({run.kind}, {run.completed} generations)")
+          f"({run.kind}, {run.completed} generations, {run.pipeline} pipeline)")
     if harmonics >= 0 and n_dof * ncoef == genome.size:
         coeffs = np.asarray(genome, np.float64).reshape(n_dof, ncoef)
         names = ["c0"] + [f"{ab}{k}" for k in range(1, harmonics + 1) for ab in ("a", "b")]

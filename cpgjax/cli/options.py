@@ -161,6 +161,21 @@ def perturbations(text: str) -> dict:
 
 TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
 
+PIPELINE_HELP = ("the physics pipeline: springs (the thesis's: every body free, each joint a stiff pivot spring, "
+                 "eq. 3.6) or exact (generalized coordinates: a floating base and one angle per revolute joint, "
+                 "default step 2 ms)")
+
+
+def pipeline_option(p: argparse.ArgumentParser, default: str = "the model file's Pipeline, else springs") -> None:
+    """``--pipeline {springs,exact}`` (:data:`cpgjax.sim.model.PIPELINES`); ``None`` when left out: the caller's
+    default (``default`` says which in the help: a model file's ``Pipeline`` keyword, or a run's recorded one)."""
+    from cpgjax.sim.model import PIPELINES
+
+    p.add_argument("--pipeline", choices=PIPELINES, default=None, help=f"{PIPELINE_HELP} (default: {default})")
+
+
+RUN_PIPELINE = "the run's, as it recorded"
+
 
 # --- outputs --------------------------------------------------------------------------------------
 

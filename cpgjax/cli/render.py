@@ -47,6 +47,7 @@ def register(subparsers: Any) -> None:
     r.add_argument("--engine", choices=("ours", "mujoco", "both"), default="ours",
                    help="ours: our simulator; mujoco: the same controller in MuJoCo C; both: side by side "
                         "(default ours)")
+    o.pipeline_option(r, "the model file's Pipeline, else springs; for a run file, the run's, as it recorded")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_render)
 
@@ -72,7 +73,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
         if args.ctl:
             raise ValueError("--ctl is for a .wl model; a run file brings its own controller")
-        model, coeffs, T, what = load_run(args.model, args.generation, terrain=args.terrain)
+        model, coeffs, T, what = load_run(args.model, args.generation, terrain=args.terrain, pipeline=args.pipeline)
         T = args.time or T
         title = f"{os.path.basename(args.model)}: {what}"
     else:
@@ -81,7 +82,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
         if args.generation is not None:
             raise ValueError("--generation is for a run file (RUN.h5)")
-        model = load_model(args.model, terrain=args.terrain)
+        model = load_model(args.model, terrain=args.terrain, pipeline=args.pipeline)
         coeffs, name = load_controller(args.ctl, model)
         T = args.time or model.time_max
         title = f"{os.path.basename(args.model)} + {os.path.basename(name)}" if args.ctl else None

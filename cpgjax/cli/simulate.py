@@ -20,7 +20,9 @@ def register(subparsers: Any) -> None:
     s.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax)")
     s.add_argument("--terrain", type=o.terrain, help=o.TERRAIN_HELP)
     s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
-    s.add_argument("--dt", type=o.step, help="integration step (default: the file's TimeStep or 5e-4 s)")
+    s.add_argument("--dt", type=o.step,
+                   help="integration step (default: the file's TimeStep, else 5e-4 s; 2e-3 s with --pipeline exact)")
+    o.pipeline_option(s)
     s.add_argument("--gravity", type=o.finite, help="gravity [m/s^2] (default: the file's, 9.81)")
     s.add_argument("--delta", type=o.positive, default=DEFAULT_DELTA,
                    help=f"delta of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
@@ -38,6 +40,7 @@ def register(subparsers: Any) -> None:
     r.add_argument("--delta", type=o.positive, default=DEFAULT_DELTA,
                    help=f"delta of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
     r.add_argument("--seed", type=o.seed, default=0, help="random seed of the offsets (default 0)")
+    o.pipeline_option(r)
     r.set_defaults(func=cmd_robustness)
 
 
@@ -57,15 +60,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from cpgjax.io.wl import load_model
 
     o.check_output_dir(args.log, "--log")
-    model = load_model(args.model, dt=args.dt, terrain=args.terrain)
+    model = load_model(args.model, dt=args.dt, terrain=args.terrain, pipeline=args.pipeline)
     if args.gravity is not None:
         model = model.replace(gravity=args.gravity)
     coeffs, ctl_name = load_controller(args.ctl, model)
     T = model.time_max if args.time is None else args.time
     r = simulate(model, coeffs, time=T, delta=args.delta, record=bool(args.log))
     body = model.body_names[model.track]
-    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, dt {model.dt:g} s, "
-          f"terrain {model.terrain.spec})")
+    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, {model.pipeline} pipeline, "
+          f"dt {model.dt:g} s, terrain {model.terrain.spec})")
     print(f"control   {ctl_name}")
     print(f"time      {T:g} s")
     print(f"distance  {float(r['distance']):+.4f} m   (body {body}, forward = +y)")
@@ -97,7 +100,7 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     from cpgjax.episode.batch import simulate
     from cpgjax.io.wl import load_model
 
-    model = load_model(args.model, terrain=args.terrain)
+    model = load_model(args.model, terrain=args.terrain, pipeline=args.pipeline)
     coeffs, name = load_controller(args.ctl, model)
     rng = np.random.default_rng(args.seed)
     rows = []
@@ -108,7 +111,8 @@ def cmd_robustness(args: argparse.Namespace) -> int:
         f = r["fitness"]
         rows.append((eps, f[0], f.mean(), f.std(), f.min(), f.max(), int(r["fallen"].sum()),
                      int(r["diverged"].sum())))
-    print(f"controller {name}: {args.n} replays per jitter (replay 0 is the controller itself)")
+    print(f"controller {name}: {args.n} replays per jitter (replay 0 is the controller itself), "
+          f"{model.pipeline} pipeline")
     print(f"{'jitter':>8}{'itself':>10}{'mean':>10}{'sd':>9}{'min':>10}{'max':>10}{'fell':>6}{'diverged':>10}")
     for e, f0, m, sd, lo, hi, fell, div in rows:
         print(f"{e:>8.0e}{f0:>10.4f}{m:>10.4f}{sd:>9.4f}{lo:>10.4f}{hi:>10.4f}{fell:>6}{div:>10}")

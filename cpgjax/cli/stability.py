@@ -52,6 +52,7 @@ def register(subparsers: Any) -> None:
     s.add_argument("--block", type=o.count, default=d.block, help=f"robots per compiled call (default {d.block})")
     s.add_argument("--out", default=os.path.join("runs", "stability"), help="output folder (default runs/stability)")
     s.add_argument("--json", action="store_true", help="print one JSON object of summary figures")
+    o.pipeline_option(s, "the model file's Pipeline, else springs; for run files, the runs', as they recorded")
     s.set_defaults(func=cmd_stability)
 
 
@@ -88,7 +89,7 @@ def _controllers(args, model_path: str) -> int:
     from cpgjax.io.wl import load_model
     from cpgjax.plots.stability import condition_panels, flat_panel
 
-    model = load_model(model_path)
+    model = load_model(model_path, pipeline=args.pipeline)
     coeffs = np.stack([read_ctl(c, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs for c in args.ctl])
     names = [_slug(c) for c in args.ctl]
     if len(set(names)) < len(names):
@@ -106,7 +107,7 @@ def _controllers(args, model_path: str) -> int:
                     path = os.path.join(args.out, f"{name}-{measure}-{kind}.png")
                     fig.savefig(path, dpi=110)
                     written.append(path)
-    summary = {"model": model_path, "controllers": dict(zip(names, args.ctl, strict=True)),
+    summary = {"model": model_path, "pipeline": model.pipeline, "controllers": dict(zip(names, args.ctl, strict=True)),
                "episode_s": float(res.t[-1]), "samples": int(len(res.t)),
                "flat_distance": dict(zip(names, map(float, res.flat_distance), strict=True)),
                "conditions": res.summary()}
@@ -116,7 +117,8 @@ def _controllers(args, model_path: str) -> int:
         print(json.dumps(summary))
         return 0
     groups = [g for g, _ in res.groups()]
-    print(f"{model_path}: {len(names)} controllers x {len(res.conditions)} grounds, {res.t[-1]:g} s each "
+    print(f"{model_path} ({model.pipeline} pipeline): {len(names)} controllers x {len(res.conditions)} grounds, "
+          f"{res.t[-1]:g} s each "
           "(fell: body tilted past 60 degrees; S: mean S(θ), eq. 6.2; proj: mean projection stability, "
           "undef: share of samples with < 3 vertices down)")
     print(f"{'controller':<24}{'ground':<14}{'fell':>6}{'S':>8}{'proj':>8}{'undef':>7}{'dist m':>8}")
@@ -148,7 +150,8 @@ def _population(args) -> int:
     from cpgjax.experiments.stability import population_study
     from cpgjax.plots.stability import fall_probability
 
-    study = population_study(args.inputs, _config(args), which=args.which, top=args.top, progress=not args.json)
+    study = population_study(args.inputs, _config(args), which=args.which, top=args.top, progress=not args.json,
+                             pipeline=args.pipeline)
     os.makedirs(args.out, exist_ok=True)
     summary = {"inputs": args.inputs, "controllers_per_run": study.controllers, "which": args.which,
                "groups": study.groups, "settings": study.summary(), "config": study.config}
@@ -166,9 +169,10 @@ def _population(args) -> int:
         json.dump(summary, f, indent=1)
     fall_probability(study).savefig(os.path.join(args.out, "population.png"), dpi=110)
     fall_probability(study, "time_to_fall").savefig(os.path.join(args.out, "population-time.png"), dpi=110)
-    text = (f"Fall probability of the {args.which} controllers ({study.controllers} per run) of each GA setting, "
-            "mean ± sd over seeds\n\n" + population_table(study) + "\n\nMean time to fall [s] (the episode's "
-            "length for a controller that stays up), mean ± sd over seeds\n\n"
+    text = (f"Fall probability of the {args.which} controllers ({study.controllers} per run) of each GA setting "
+            f"({study.config.get('pipeline', 'springs')} pipeline), mean ± sd over seeds\n\n"
+            + population_table(study) + "\n\nMean time to fall [s] (the episode's length for a controller that "
+            "stays up), mean ± sd over seeds\n\n"
             + population_table(study, "time_to_fall") + "\n")
     with open(os.path.join(args.out, "population.md"), "w") as f:
         f.write(text)

@@ -64,6 +64,7 @@ def register(subparsers: Any) -> None:
     from cpgjax.episode.fitness import DEFAULT_DELTA
     from cpgjax.optim.es import ESConfig
     from cpgjax.optim.ga import MUTATIONS, SELECTIONS, GAConfig
+    from cpgjax.sim.model import PIPELINES
 
     d, e = GAConfig(), ESConfig()
     p = subparsers.add_parser(
@@ -110,6 +111,7 @@ def register(subparsers: Any) -> None:
                         "(see cpgjax evolve --help)")
     p.add_argument("--perturb", type=o.perturbations, default=None, metavar="KEY=VALUE,...",
                    help="robust evaluation ranges (see cpgjax evolve --help)")
+    o.pipeline_option(p, "the model file's Pipeline, else springs; every run of a sweep folder has one")
     p.add_argument("--chunk", type=o.count, default=d.chunk, help=f"generations per jitted chunk (default {d.chunk})")
     p.add_argument("--group", choices=("all", "kind"), default="all",
                    help="all runs in one program (default) or one program per group of same-shaped runs")
@@ -145,6 +147,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--scale", choices=("tiny", "full"), default=None, help="sets CPGJAX_SCALE for the notebook")
     p.add_argument("--sweep-dir", default=None, help="sets CPGJAX_SWEEP_DIR (default: the notebook's choice)")
     p.add_argument("--fig-dir", default=None, help="sets CPGJAX_FIG_DIR (default: the notebook's choice)")
+    p.add_argument("--pipeline", choices=PIPELINES, default=None,
+                   help=f"sets CPGJAX_PIPELINE: {o.PIPELINE_HELP} (default: the notebook's, the models' own)")
     p.add_argument("--out", default=None, help="save the executed notebook here (default: in place)")
     p.add_argument("--no-save", action="store_true", help="do not save the executed notebook")
     p.set_defaults(func=cmd_notebook)
@@ -156,7 +160,7 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
 
     problem_args: dict[str, Any] = {"model": args.model, "time": args.time, "terrain": args.terrain,
                                     "evaluation": args.evaluation, "perturb": args.perturb,
-                                    "delta": args.delta}
+                                    "delta": args.delta, "pipeline": args.pipeline}
     if args.preset:
         given = [f"--{k.replace('_', '-')}" for k in GRID if getattr(args, k) not in (None, False)]
         if given:
@@ -269,7 +273,7 @@ def cmd_notebook(args: argparse.Namespace) -> int:
     from cpgjax.experiments.notebook import execute
 
     env = {k: v for k, v in (("CPGJAX_SCALE", args.scale), ("CPGJAX_SWEEP_DIR", args.sweep_dir),
-                             ("CPGJAX_FIG_DIR", args.fig_dir)) if v}
+                             ("CPGJAX_FIG_DIR", args.fig_dir), ("CPGJAX_PIPELINE", args.pipeline)) if v}
     out = None if args.no_save else (args.out or args.notebook)
     if not os.path.isfile(args.notebook):
         raise FileNotFoundError(2, "no such notebook", args.notebook)

@@ -38,6 +38,8 @@ def register(subparsers: Any) -> None:
     b.add_argument("--a1-examples", type=o.list_of(str, "expected example names, e.g. worm,quadruped"),
                    default=None, help="--table-a1: only these examples (default car,worm,hexapod,quadruped)")
     b.add_argument("--json", action="store_true", help="--table-a1: print one JSON object instead of the table")
+    o.pipeline_option(b, "the model file's Pipeline, else springs; our simulator's rows only, MuJoCo's do not "
+                         "depend on it")
     b.set_defaults(func=cmd_bench)
 
     d = subparsers.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
@@ -49,6 +51,7 @@ def register(subparsers: Any) -> None:
                    help="comma-separated time steps (default 1e-4,2e-4,3e-4,5e-4,7e-4,1e-3,1.5e-3)")
     d.add_argument("--time", type=o.seconds, default=10.0, help="simulated seconds per episode (default 10)")
     d.add_argument("--out", help="write the table as markdown here too")
+    o.pipeline_option(d)
     d.set_defaults(func=cmd_study_dt)
 
     f = subparsers.add_parser("study-friction", help="the friction bristle: steadiness of the score vs agreement "
@@ -69,6 +72,7 @@ def register(subparsers: Any) -> None:
     f.add_argument("--time", type=o.seconds, default=10.0, help="simulated seconds per episode (default 10)")
     f.add_argument("--out", help="write the table as markdown here too")
     f.add_argument("--json", action="store_true", help="print one JSON object (the rows) instead of the table")
+    o.pipeline_option(f, "the model file's Pipeline, else springs; our simulator's side only")
     f.set_defaults(func=cmd_study_friction)
 
 
@@ -99,13 +103,16 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise ValueError("--ray is for --sweep (cpgjax bench --sweep --ray)")
     if args.sweep and args.ray is not None:
         bench.bench_sweep_ray(args.model, time_s=args.time, generations=args.generations, seeds=args.seeds,
-                              workers=args.workers, address=args.ray or None)
+                              workers=args.workers, address=args.ray or None, pipeline=args.pipeline)
     elif args.sweep:
-        bench.bench_sweep(args.model, time_s=args.time, generations=args.generations, seeds=args.seeds)
+        bench.bench_sweep(args.model, time_s=args.time, generations=args.generations, seeds=args.seeds,
+                          pipeline=args.pipeline)
     elif args.against:
-        bench.bench_against_mjx(args.model, batches=batches, time_s=args.time, chunk=args.chunk)
+        bench.bench_against_mjx(args.model, batches=batches, time_s=args.time, chunk=args.chunk,
+                                pipeline=args.pipeline)
     else:
-        bench.run_bench(args.model, batches=batches, time_s=args.time, chunk=args.chunk, tricks=args.tricks)
+        bench.run_bench(args.model, batches=batches, time_s=args.time, chunk=args.chunk, tricks=args.tricks,
+                        pipeline=args.pipeline)
     return 0
 
 
@@ -117,11 +124,11 @@ def _table_a1(args: argparse.Namespace) -> int:
 
     models_dir = os.path.dirname(os.path.abspath(args.model))
     rows = bench.table_a1(models_dir, batch=args.a1_batch, time_s=args.time, chunk=args.chunk,
-                          examples=args.a1_examples, progress=not args.json)
+                          examples=args.a1_examples, progress=not args.json, pipeline=args.pipeline)
     if args.json:
         print(json.dumps({"machine": bench.machine(), "rows": rows}))
     else:
-        print(f"machine: {bench.machine()}")
+        print(f"machine: {bench.machine()}; pipeline {', '.join(dict.fromkeys(r['pipeline'] for r in rows))}")
         print(table_a1(rows))
     return 0
 
@@ -130,7 +137,7 @@ def cmd_study_dt(args: argparse.Namespace) -> int:
     from cpgjax.experiments.studies import timestep_study
 
     o.check_output_file(args.out)
-    timestep_study(args.model, args.ctl, list(args.dts), time_s=args.time, out=args.out)
+    timestep_study(args.model, args.ctl, list(args.dts), time_s=args.time, out=args.out, pipeline=args.pipeline)
     return 0
 
 
@@ -144,7 +151,7 @@ def cmd_study_friction(args: argparse.Namespace) -> int:
                                                    f"ratio {r['ratio_median']:.2f}, rho {r['rho']:+.2f}", flush=True))
     rows = friction_study(args.model, args.ctl, args.springs, runs=args.runs, replays=args.replays,
                           jitter=args.jitter, n_random=args.random, n_perturbed=args.perturbed, time_s=args.time,
-                          progress=show)
+                          progress=show, pipeline=args.pipeline)
     text = friction_table(rows)
     if args.out:
         with open(args.out, "w") as fh:

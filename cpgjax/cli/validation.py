@@ -35,6 +35,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--gravity", type=o.nonneg, default=None, help="override the file's gravity, m/s^2")
     p.add_argument("--tau-max", type=o.positive, default=None, help="override the servo's torque limit, N m")
     p.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo C run")
+    o.pipeline_option(p, "the model file's Pipeline, else springs; the penalty simulator's side only")
     p.add_argument("--out", default=None, metavar="DIR",
                    help="write servo.json, servo.md, fig-6-1.png and fig-6-2.png here")
     p.add_argument("--json", action="store_true", help="print one JSON object with the summary instead of the table")
@@ -48,7 +49,8 @@ def cmd_servo(args: argparse.Namespace) -> int:
 
     o.check_output_dir(args.out)
     cfg = ServoConfig(joint=args.joint, freqs=tuple(args.freqs), amps=tuple(args.amps), settle=args.settle,
-                      periods=args.periods, mujoco=not args.no_mujoco, gravity=args.gravity, tau_max=args.tau_max)
+                      periods=args.periods, mujoco=not args.no_mujoco, gravity=args.gravity, tau_max=args.tau_max,
+                      pipeline=args.pipeline)
     rec = 0.5 if 0.5 in cfg.freqs else min(cfg.freqs)
     out = run_servo(args.model, cfg, record_freq=rec if args.out else None, progress=not args.json)
     if args.out:

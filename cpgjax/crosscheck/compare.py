@@ -86,7 +86,7 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
             row[f"{e}_fallen"] = bool(np.asarray(res[e]["fallen"])[i])
         rows.append(row)
     summary = {"n": len(labels), "time": time, "penalty_dt": model.dt, "penalty_alpha": model.alpha,
-               "penalty_beta": model.beta}
+               "penalty_beta": model.beta, "penalty_pipeline": model.pipeline}
     for a, b in (("penalty", "mujoco"), ("penalty", "mjx"), ("mujoco", "mjx")):
         if a in res and b in res:
             summary[f"rho_{a}_{b}"] = spearman(res[a]["fitness"], res[b]["fitness"])
@@ -119,9 +119,13 @@ def table(rows, summary, engines) -> str:
             cells += [f"{r[f'{e}_distance']:+.3f}{fell}", f"{r[f'{e}_fitness']:+.4f}"]
         lines.append(f"| {r['controller']} | " + " | ".join(cells) + " |")
     lines.append("")
-    if "penalty_dt" in summary:
+    if summary.get("penalty_pipeline") == "exact":
+        lines.append(f"Our simulator: step {summary['penalty_dt'] * 1e3:g} ms, exact pipeline (exact joints: "
+                     "generalized coordinates).")
+    elif "penalty_dt" in summary:
         lines.append(f"Our simulator: step {summary['penalty_dt'] * 1e3:g} ms, pivot springs "
-                     f"{summary['penalty_alpha']:g} N/m, {summary['penalty_beta']:g} N s/m (eq. 3.6).")
+                     f"{summary['penalty_alpha']:g} N/m, {summary['penalty_beta']:g} N s/m (eq. 3.6), "
+                     "springs pipeline.")
     lines.append(f"{summary['n']} controllers, {summary['time']:g} s each.  Spearman rank correlation "
                  "(95 % bootstrap interval over the controllers):")
     for k, v in summary.items():

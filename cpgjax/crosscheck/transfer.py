@@ -54,6 +54,12 @@ class Replay:
     ours_jit: dict           # mean, sd, falls over the jittered replays
     mujoco_jit: dict
     pick: dict | None = None   # how the controller was chosen, when not as the run's best (e.g. validated)
+    pipeline: str = "springs"  # our side's physics pipeline (the run's, unless `replay_runs(pipeline=)`)
+
+    @property
+    def group(self) -> str:
+        """The summary row of its evaluation mode: the mode, with the pipeline named when not the thesis's."""
+        return self.evaluation if self.pipeline == "springs" else f"{self.evaluation}, {self.pipeline} pipeline"
 
     @property
     def ratio(self) -> float:
@@ -92,6 +98,9 @@ def variant(model, dt: float | None = None, joint_spring=None):
     MuJoCo's exported model depends on neither: this changes only our side of a comparison.
     """
     changes = {}
+    if joint_spring is not None and model.pipeline != "springs":
+        raise ValueError(f"--joint-spring sets the pivot springs of the springs pipeline (eq. 3.6); this model runs "
+                         f"on the {model.pipeline} pipeline, whose joints have none")
     if dt is not None:
         changes["dt"] = float(dt)
     if joint_spring is not None:
@@ -100,17 +109,18 @@ def variant(model, dt: float | None = None, joint_spring=None):
 
 
 @functools.lru_cache(maxsize=8)
-def _model(text: str, path: str, terrain, dt=None, joint_spring=None):
+def _model(text: str, path: str, terrain, dt=None, joint_spring=None, pipeline: str = "springs"):
     """One Model object per model text: the simulator's compiled programs are cached per Model object, so the
     runs of a sweep (one model) share one compilation instead of compiling one each."""
-    return variant(build_model(parse_wl(text, path), terrain=terrain), dt, joint_spring)
+    return variant(build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline), dt, joint_spring)
 
 
 def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, dt: float | None = None,
-                joint_spring=None, pick=None, progress=None) -> list[Replay]:
+                joint_spring=None, pipeline: str | None = None, pick=None, progress=None) -> list[Replay]:
     """Replay the best controller of every run in ``paths`` here and in MuJoCo C (see the module docstring).
 
-    ``dt``, ``joint_spring``: replay here with another step or pivot springs (:func:`variant`).
+    ``dt``, ``joint_spring``: replay here with another step or pivot springs (:func:`variant`).  ``pipeline``:
+    our side's physics pipeline (None: each run's, as it recorded; MuJoCo's model does not depend on it).
     ``pick(run) -> (fitness recorded for it, genome, dict saying how it was chosen)`` chooses another controller
     of each run than its best (``cpgjax transfer --pick validated``: :mod:`cpgjax.experiments.validate`).
     """
@@ -129,7 +139,8 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         text = str(run.meta.get("model_text", ""))
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
-        model = _model(text, str(run.meta.get("model_path", path)), terrain, dt, joint_spring)
+        model = _model(text, str(run.meta.get("model_path", path)), terrain, dt, joint_spring,
+                       pipeline or run.pipeline)
         T = float(time or model.time_max)
         c = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
         rng = np.random.default_rng([seed, zlib.crc32(c.tobytes())])   # the jitter depends on the controller only
@@ -143,7 +154,7 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         out.append(Replay(run=path, evaluation=evaluation, cell=os.path.basename(os.path.dirname(path)),
                           seed=int(run.config.get("seed", 0)), fitness_in_run=float(fit),
                           ours=first(ours, 0), mujoco=first(mj, 0), ours_jit=_stats(rest(ours)),
-                          mujoco_jit=_stats(rest(mj)), pick=how))
+                          mujoco_jit=_stats(rest(mj)), pick=how, pipeline=model.pipeline))
         if progress is not None:
             progress(out[-1])
     return out
@@ -156,10 +167,20 @@ def _groups(replays: list[Replay], by: str) -> list[str]:
     """The summary's rows: evaluation modes in :data:`MODES` order, or the sweep's cells as they come."""
     if by not in GROUPS:
         raise ValueError(f"by must be one of {GROUPS}, not {by!r}")
-    keys = list(dict.fromkeys(getattr(r, by) for r in replays))
+    keys = list(dict.fromkeys(_key(r, by) for r in replays))
     if by == "evaluation":
-        keys.sort(key=lambda m: (MODES.index(m) if m in MODES else 9, m))
+        keys.sort(key=_mode_order)
     return keys
+
+
+def _mode_order(group: str) -> tuple[int, int, str]:
+    """Evaluation modes in :data:`MODES` order, each mode's runs of the thesis's pipeline first."""
+    mode = group.rsplit(", ", 1)[0] if group.endswith(" pipeline") else group
+    return (MODES.index(mode) if mode in MODES else 9, group != mode, group)
+
+
+def _key(r: Replay, by: str) -> str:
+    return r.group if by == "evaluation" else getattr(r, by)
 
 
 def summary(replays: list[Replay], by: str = "evaluation") -> dict:
@@ -167,7 +188,7 @@ def summary(replays: list[Replay], by: str = "evaluation") -> dict:
     carry over; Spearman over all runs."""
     out: dict = {"runs": len(replays)}
     for key in _groups(replays, by):
-        rs = [r for r in replays if getattr(r, by) == key]
+        rs = [r for r in replays if _key(r, by) == key]
         ratios = np.array([r.ratio for r in rs], float)
         out[key] = {
             "runs": len(rs),
@@ -197,7 +218,8 @@ def table(replays: list[Replay], replay_count: int, here: str | None = None, by:
     for r in replays:
         fell = lambda d: " (fell)" if d["fallen"] else ""  # noqa: E731
         lines.append(
-            f"| {r.cell}/s{r.seed} | {r.evaluation} | {r.ours['fitness']:.3f}{fell(r.ours)} | {r.ours['speed']:.3f} | "
+            f"| {r.cell}/s{r.seed} | {r.evaluation} ({r.pipeline}) | {r.ours['fitness']:.3f}{fell(r.ours)} | "
+            f"{r.ours['speed']:.3f} | "
             f"{r.mujoco['fitness']:.3f}{fell(r.mujoco)} | {r.mujoco['speed']:.3f} | {r.ratio:.2f} | "
             f"{r.ours_jit['mean']:.3f} ± {r.ours_jit['sd']:.3f} ({r.ours_jit['falls']}) | "
             f"{r.mujoco_jit['mean']:.3f} ± {r.mujoco_jit['sd']:.3f} ({r.mujoco_jit['falls']}) | "
@@ -233,9 +255,9 @@ def plot(replays: list[Replay], out: str) -> None:
     ax.plot([0, hi], [0, MIN_RATIO * hi], color="0.6", lw=1, label=f"{MIN_RATIO:.0%} of ours")
     colors = dict(zip(MODES, ("tab:red", "tab:blue", "tab:green", "tab:purple"), strict=True))
     others = iter(("tab:orange", "tab:brown", "tab:cyan", "tab:olive", "tab:pink"))
-    colors |= {m: next(others, "0.3") for m in sorted({r.evaluation for r in replays} - set(MODES))}
-    for mode in sorted({r.evaluation for r in replays}, key=lambda m: (MODES.index(m) if m in MODES else 9, m)):
-        rs = [r for r in replays if r.evaluation == mode]
+    colors |= {m: next(others, "0.3") for m in sorted({r.group for r in replays} - set(MODES))}
+    for mode in sorted({r.group for r in replays}, key=_mode_order):
+        rs = [r for r in replays if r.group == mode]
         fell = [r.mujoco_jit["falls"] > MAX_FALLS for r in rs]
         ax.errorbar([r.ours["fitness"] for r in rs], [r.mujoco_jit["mean"] for r in rs],
                     yerr=[r.mujoco_jit["sd"] for r in rs], fmt="none", ecolor=colors.get(mode, "0.3"), alpha=0.6)

@@ -141,17 +141,18 @@ def cpu_peak_gflops() -> tuple[float, str]:
 
 
 def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chunk: int = 256,
-              tricks: bool = False, progress=True):
-    """The main table (and the tricks table); returns the rows."""
+              tricks: bool = False, progress=True, pipeline: str | None = None):
+    """The main table (and the tricks table); returns the rows.  ``pipeline``: our simulator's physics pipeline
+    (None: the model file's, else springs)."""
     import jax
 
     from cpgjax.io.wl import load_model
     from cpgjax.sim import rotation
 
-    model = load_model(model_path)
+    model = load_model(model_path, pipeline=pipeline)
     print(f"machine: {machine()}")
     print(f"model: {model_path}  ({model.nb} bodies, {model.nj} joints, {len(model.ct_pt)} contact vertices), "
-          f"episode {time_s} s simulated, chunk {chunk}")
+          f"pipeline {model.pipeline}, dt {model.dt:g} s, episode {time_s} s simulated, chunk {chunk}")
     rows = []
     for b in batches:
         rows.append(row(model, b, time_s, label=f"penalty sim, {len(jax.devices())} dev", chunk=chunk))
@@ -192,11 +193,13 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
     return rows
 
 
-def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 1.0, chunk: int = 256):
+def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 1.0, chunk: int = 256,
+                      pipeline: str | None = None):
     """The quadruped in the penalty simulator, MJX (fast settings) and MuJoCo C's threaded rollout.
 
     Each engine at its own stable step (penalty 0.5 ms, MuJoCo/MJX 2 ms), same batch, same
-    controllers, measured one after the other in this run; compile time apart.
+    controllers, measured one after the other in this run; compile time apart.  ``pipeline``: our
+    simulator's (None: the model file's, else springs); MuJoCo's model does not depend on it.
     """
     import jax
 
@@ -204,10 +207,11 @@ def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 
     from cpgjax.crosscheck.mjcf import MJ_TIMESTEP, load
     from cpgjax.io.wl import load_model
 
-    model = load_model(model_path)
+    model = load_model(model_path, pipeline=pipeline)
     print(f"machine: {machine()}")
     print(f"model: {model_path}, {time_s:g} s episodes; MuJoCo C and MJX at dt {MJ_TIMESTEP:g} s "
-          f"(MJX: 2 solver and 2 line-search iterations), penalty simulator at dt {model.dt:g} s")
+          f"(MJX: 2 solver and 2 line-search iterations), penalty simulator ({model.pipeline} pipeline) at dt "
+          f"{model.dt:g} s")
     rows = []
     mj = load(model)
     nthreads = os.cpu_count() or 1
@@ -245,7 +249,7 @@ def _thesis_cells_for(preset: str, generations: int) -> list:
 
 
 def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, seeds: int = 5,
-                preset: str = "full", progress: bool = True) -> dict:
+                preset: str = "full", progress: bool = True, pipeline: str | None = None) -> dict:
     """Evaluations per second of one GA run against a sweep of the thesis experiment, side by side.
 
     (1) one GA run as ``cpgjax evolve`` makes it (population 20, pocket 4), (2) the cells of
@@ -261,8 +265,9 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
     from cpgjax.optim import ga
 
     print(f"machine: {machine()}, {len(jax.devices())} host devices")
-    print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run")
-    pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None}
+    print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run"
+          + (f", pipeline {pipeline}" if pipeline else ""))
+    pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None, "pipeline": pipeline}
     cells = _thesis_cells_for(preset, generations)
     rows = []
 
@@ -299,7 +304,7 @@ def bench_sweep(model_path: str, *, time_s: float = 2.0, generations: int = 5, s
 
 def bench_sweep_ray(model_path: str, *, time_s: float = 2.0, generations: int = 5, seeds: int = 5,
                     preset: str = "full", workers: int = 2, address: str | None = None,
-                    progress: bool = True) -> dict:
+                    progress: bool = True, pipeline: str | None = None) -> dict:
     """Evaluations per second of the thesis sweep in this process against the same sweep on Ray, side by side.
 
     (1) the cells of ``cpgjax sweep --preset PRESET`` x ``seeds`` in one program, in process (every core
@@ -315,8 +320,9 @@ def bench_sweep_ray(model_path: str, *, time_s: float = 2.0, generations: int = 
 
     cluster.require_ray()
     print(f"machine: {machine()}")
-    print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run, {seeds} seeds")
-    pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None}
+    print(f"model: {model_path}, {time_s:g} s episodes, {generations} generations per run, {seeds} seeds"
+          + (f", pipeline {pipeline}" if pipeline else ""))
+    pa = {"model": model_path, "time": time_s, "terrain": None, "delta": None, "pipeline": pipeline}
     cells = _thesis_cells_for(preset, generations)
     rows = []
     with tempfile.TemporaryDirectory() as d:
@@ -385,14 +391,15 @@ def _batch(model, T, chunk, c):
 
 
 def table_a1(models_dir: str, *, batch: int = 256, time_s: float | None = None, chunk: int = 256,
-             examples=None, progress: bool = True) -> list[dict]:
+             examples=None, progress: bool = True, pipeline: str | None = None) -> list[dict]:
     """Table A.1: each example's slowdown (wall s per simulated s) alone and per robot in a batch.
 
     Per example (the thesis's model, its controller, its simulated time unless ``time_s``):
     ``slowdown_one``: one robot, `episode.rollout.rollout` jitted with B = 1 on one device (no padding);
     ``slowdown_per_robot``: ``batch`` copies through `episode.batch.evaluate` (every host device,
     chunks of ``chunk``), wall time / (batch x simulated time).  Compile time is apart (ahead of time).
-    ``examples``: names to run (default all four).
+    ``examples``: names to run (default all four).  ``pipeline``: our simulator's (None: each model file's,
+    else springs); each row names the one it ran.
     """
     import jax
     import jax.numpy as jnp
@@ -409,7 +416,7 @@ def table_a1(models_dir: str, *, batch: int = 256, time_s: float | None = None, 
     todo = [e for e in THESIS_A1 if examples is None or e[0] in examples]
     rows = []
     for name, wl, ctl, dofs, t_thesis, slow in tqdm(todo, desc="Table A.1", unit="example", disable=not progress):
-        model = load_model(os.path.join(models_dir, wl))
+        model = load_model(os.path.join(models_dir, wl), pipeline=pipeline)
         T = t_thesis if time_s is None else float(time_s)
         if ctl is None:
             c = np.zeros((model.n_ctrl, model.n_coeff))
@@ -422,7 +429,8 @@ def table_a1(models_dir: str, *, batch: int = 256, time_s: float | None = None, 
         many = jnp.asarray(np.repeat(np.asarray(c)[None], batch, 0), jnp.float32)
         compb, runb = _timed(partial(_batch, model, T, chunk), many)
         rows.append({"example": name, "model": wl, "controller": ctl, "dofs": int(model.nj), "thesis_dofs": dofs,
-                     "dt": model.dt, "sim_time": sim_t, "thesis_time": t_thesis, "thesis_slowdown": slow,
+                     "dt": model.dt, "pipeline": model.pipeline, "sim_time": sim_t, "thesis_time": t_thesis,
+                     "thesis_slowdown": slow,
                      "slowdown_one": run1 / sim_t, "compile_one_s": comp1, "batch": batch,
                      "slowdown_per_robot": runb / (batch * sim_t), "slowdown_batch": runb / sim_t,
                      "compile_batch_s": compb, "devices": len(jax.devices())})

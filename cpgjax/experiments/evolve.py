@@ -163,7 +163,7 @@ def check_stop() -> None:
 # Problem settings that do not change a fitness (a moved model file, how the options were spelled).
 _META_IGNORED = ("model_path", "cli_problem_args")
 # meta key -> (option, what it is, unit); checked in this order, every other key after them
-_META_OPTIONS = {"evaluation": ("--evaluation", "evaluation", ""),
+_META_OPTIONS = {"evaluation": ("--evaluation", "evaluation", ""), "pipeline": ("--pipeline", "physics pipeline", ""),
                  "time": ("--time", "episode length", " s"), "terrain": ("--terrain", "terrain", ""),
                  "delta": ("--delta", "delta of the fitness", ""), "replicas": ("--replicas", "replicas", ""),
                  "jitter": (None, "replicas' jitter", ""), "dt": ("--dt", "time step", " s")}
@@ -203,13 +203,16 @@ def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
 
 def check_problem(path: str, problem: Problem, attrs: dict | None = None, verb: str = "resume") -> None:
     """Refuse ``problem`` where the run in ``path`` was scored with other settings (episode length, terrain,
-    delta, evaluation and its perturbations, time step, the model file's text, ...): :class:`ResultsError` naming
-    the first difference.  ``verb``: what is refused ("resume"; a sweep adding runs beside it: "add runs")."""
+    delta, evaluation and its perturbations, physics pipeline, time step, the model file's text, ...):
+    :class:`ResultsError` naming the first difference.  ``verb``: what is refused ("resume"; a sweep adding runs
+    beside it: "add runs")."""
     a = attrs if attrs is not None else read_attrs(path)
     fix = _FIX if verb == "resume" else "(use the sweep's settings, or another --out)"
     old = json.loads(a.get("meta") or "{}")
     new = json.loads(json.dumps(dict(problem.meta), default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
     given = json.loads(new.get("cli_problem_args") or "{}")
+    if "pipeline" in new and "pipeline" not in old:   # a run made before the pipeline was recorded: the thesis's
+        old["pipeline"] = "springs"
     differ = [k for k in (set(old) | set(new)) - set(_META_IGNORED) if old.get(k) != new.get(k)]
     # first what an option given now changes, then the model file, then whatever else differs
     for k in [k for k in _META_OPTIONS if k in differ and _META_OPTIONS[k][0] and given.get(k) is not None]:

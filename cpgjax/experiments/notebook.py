@@ -3,7 +3,8 @@
 The kernel is this very interpreter (a kernelspec made on the fly in a temporary
 ``JUPYTER_PATH``), so the notebook sees the same installed cpgjax and packages as the command,
 with no ``jupyter kernelspec install`` step.  Settings reach the notebook through environment
-variables (the notebook reads ``CPGJAX_SCALE``, ``CPGJAX_SWEEP_DIR``, ``CPGJAX_FIG_DIR``).
+variables (the notebook reads ``CPGJAX_SCALE``, ``CPGJAX_SWEEP_DIR``, ``CPGJAX_FIG_DIR`` and ``CPGJAX_PIPELINE``,
+the physics pipeline of every model it builds or evolves: unset, each model's own, springs for the shipped ones).
 Needs ``nbclient``, ``nbformat`` and ``ipykernel`` (the ``dev`` extra: ``pip install -e '.[dev]'``).
 """
 

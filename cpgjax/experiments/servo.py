@@ -35,6 +35,7 @@ class ServoConfig:
     mujoco: bool = True
     gravity: float | None = None                 # None: the file's
     tau_max: float | None = None                 # None: the file's
+    pipeline: str | None = None                  # the physics pipeline; None: the file's Pipeline, else springs
 
     @property
     def time(self) -> float:
@@ -47,7 +48,7 @@ def rig_model(model_path: str, cfg: ServoConfig):
     from cpgjax.sim.model import build_model
 
     return build_model(servo_rig(load_wl(model_path), cfg.joint, lift=cfg.lift, gravity=cfg.gravity,
-                                 tau_max=cfg.tau_max))
+                                 tau_max=cfg.tau_max), pipeline=cfg.pipeline)
 
 
 def run_servo(model_path: str, cfg: ServoConfig = ServoConfig(), *, record_freq: float | None = None,

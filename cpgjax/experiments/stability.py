@@ -250,7 +250,9 @@ class PopulationStudy:
         return order, best
 
 
-def _model_of(run):
+def _model_of(run, pipeline: str | None = None):
+    """(model, episode length) a run was evolved on: its stored text, terrain and physics pipeline (``pipeline``:
+    another one)."""
     from cpgjax.io.wl import parse_wl
     from cpgjax.sim.model import build_model
 
@@ -258,7 +260,8 @@ def _model_of(run):
     if not text:
         raise ValueError(f"{run.path}: the run holds no model (an analytic problem?): nothing to perturb")
     cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
-    model = build_model(parse_wl(text, str(run.meta.get("model_path", run.path))), terrain=cli.get("terrain"))
+    model = build_model(parse_wl(text, str(run.meta.get("model_path", run.path))), terrain=cli.get("terrain"),
+                        pipeline=pipeline or run.pipeline)
     return model, float(cli.get("time") or run.meta.get("time") or model.time_max)
 
 
@@ -284,8 +287,10 @@ def controllers_of(run, which: str = "final", top: int | None = None) -> tuple[n
 
 
 def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: str = "final", top: int | None = None,
-                     progress: bool = False) -> PopulationStudy:
-    """Score the controllers of every run (grouped per GA setting) under the perturbations, in one batch."""
+                     progress: bool = False, pipeline: str | None = None) -> PopulationStudy:
+    """Score the controllers of every run (grouped per GA setting) under the perturbations, in one batch.
+
+    ``pipeline``: the physics pipeline to score them on (None: the runs', as they recorded; they must agree)."""
     from cpgjax.analysis.cells import load_cells
     from cpgjax.io.results import read_run
     from cpgjax.io.sweepdir import run_files
@@ -300,11 +305,11 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
         rs = [read_run(p) for p in c.paths]
         per_cell.append(len(rs))
         for r in rs:
-            m, T = _model_of(r)
+            m, T = _model_of(r, pipeline)
             if model is None:
                 model, time = m, T
-            elif m.description.text != model.description.text or T != time:
-                raise ValueError(f"{r.path}: a different model or episode from {runs[0].path}: "
+            elif m.description.text != model.description.text or T != time or m.pipeline != model.pipeline:
+                raise ValueError(f"{r.path}: a different model, episode or physics pipeline from {runs[0].path}: "
                                  "study one model at a time")
             runs.append(r)
     picked = [controllers_of(r, which, top) for r in runs]
@@ -333,4 +338,5 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
              for name, i in (("stable", stable), ("unstable", unstable))}
     return PopulationStudy(labels=[c.label() for c in cells], configs=[c.config for c in cells],
                            groups=[g for g, _ in groups], fall=out_f, S_mean=out_s, fall_time=out_t, controllers=n,
-                           config={**asdict(cfg), "which": which, "top": top, "runs": len(runs)}, picks=picks)
+                           config={**asdict(cfg), "which": which, "top": top, "runs": len(runs),
+                                   "pipeline": model.pipeline}, picks=picks)

@@ -17,12 +17,12 @@ import numpy as np
 
 
 def timestep_study(model_path: str, ctl_path: str, dts, *, time_s: float = 10.0, n_random: int = 64,
-                   seed: int = 0, out: str | None = None):
+                   seed: int = 0, out: str | None = None, pipeline: str | None = None):
     from cpgjax.episode.batch import simulate
     from cpgjax.io.ctl import read_ctl
     from cpgjax.io.wl import load_model
 
-    base = load_model(model_path)
+    base = load_model(model_path, pipeline=pipeline)
     trot = np.asarray(read_ctl(ctl_path, n_dof=base.n_ctrl, harmonics=base.harmonics).coeffs)
     rng = np.random.default_rng(seed)
     rand = rng.uniform(-0.8, 0.8, (n_random, base.n_ctrl, base.n_coeff))
@@ -87,7 +87,8 @@ def table(rows, n_random, time_s):
 # The friction bristle: steadiness of the score vs agreement with MuJoCo (docs/simulator.md)
 
 def friction_study(model_path: str, ctl_path: str, springs, *, runs=(), replays: int = 64, jitter: float = 1e-6,
-                   n_random: int = 8, n_perturbed: int = 16, time_s: float = 10.0, seed: int = 0, progress=None):
+                   n_random: int = 8, n_perturbed: int = 16, time_s: float = 10.0, seed: int = 0, progress=None,
+                   pipeline: str | None = None):
     """For each friction bristle ``(k, b)`` (``FrictionSpring`` in a `.wl`): how chaotic and how MuJoCo-like?
 
     - ``trot_sd``, ``trot_falls``: the controller ``ctl_path`` with every gene moved by N(0, jitter), ``replays``
@@ -106,7 +107,7 @@ def friction_study(model_path: str, ctl_path: str, springs, *, runs=(), replays:
     from cpgjax.io.sweepdir import run_files
     from cpgjax.io.wl import load_model
 
-    base = load_model(model_path)
+    base = load_model(model_path, pipeline=pipeline)
     bests = []
     for p in run_files(runs):
         g = np.asarray(read_run(p).best()[3], np.float32)

@@ -107,14 +107,17 @@ def perturbations(run: Run, episodes: int) -> Perturbations:
 
 
 @functools.lru_cache(maxsize=8)
-def _scorer(text: str, path: str, terrain, T: float, delta: float, p: Perturbations):
+def _scorer(text: str, path: str, terrain, T: float, delta: float, p: Perturbations, pipeline: str = "springs"):
     """One jitted robust evaluation per model and validation (a sweep's runs share one compilation)."""
-    model = build_model(parse_wl(text, path), terrain=terrain)
+    model = build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline)
     return jax.jit(robust_problem(path, model, p, T=T, delta=delta).evaluate)
 
 
-def validate(run: Run, v: Validation = Validation()) -> Champion:
-    """Re-score the run's ``v.candidates`` best distinct genomes over ``v.episodes`` common perturbed episodes."""
+def validate(run: Run, v: Validation = Validation(), pipeline: str | None = None) -> Champion:
+    """Re-score the run's ``v.candidates`` best distinct genomes over ``v.episodes`` common perturbed episodes.
+
+    The model is the run's stored text on the run's physics pipeline (:attr:`Run.pipeline`) unless ``pipeline``
+    names another."""
     text = str(run.meta.get("model_text", ""))
     if not text:
         raise ResultsError(f"{run.path}: the run holds no model (an analytic problem?): nothing to validate")
@@ -124,7 +127,7 @@ def validate(run: Run, v: Validation = Validation()) -> Champion:
         raise ResultsError(f"{run.path}: the run records no episode length")
     where, genomes, recorded = candidates(run, v.candidates)
     score = _scorer(text, str(run.meta.get("model_path", run.path)), terrain, float(time),
-                    float(run.meta.get("delta", 8.0)), p)
+                    float(run.meta.get("delta", 8.0)), p, pipeline or run.pipeline)
     key = jax.random.fold_in(jax.random.key(v.seed), VALIDATION_STREAM)
     keys = jnp.repeat(key[None], len(genomes), axis=0)     # common random numbers: the same episodes for each
     scores = np.asarray(score(jnp.asarray(genomes, jnp.float32), keys)["fitness"], np.float64)

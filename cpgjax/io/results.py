@@ -15,7 +15,7 @@ Layout (``format = "cpgjax-run"``, ``format_version = 1``)::
         problem, n_genes, lower, upper
         meta                     JSON of Problem.meta; each entry is also an attribute of its
                                  own (model_path, model_text (the .wl file's text), time,
-                                 terrain, delta, dt, n_dof, harmonics, ...)
+                                 terrain, delta, dt, pipeline, n_dof, harmonics, ...)
         versions                 JSON {python, cpgjax, jax, jaxlib, mujoco, numpy, h5py, platform, device,
                                  cpu, isa, xla_flags}: cpu the CPU's model name, isa the widest vector
                                  instructions XLA may use here (AVX512, AVX2, ..., or the cap of
@@ -369,6 +369,12 @@ class Run:
     @property
     def completed(self) -> int:
         return int(self.attrs["completed"])
+
+    @property
+    def pipeline(self) -> str:
+        """The physics pipeline the run was scored on (``cpgjax.sim.model.PIPELINES``); runs made before it was
+        recorded ran on the thesis's, "springs"."""
+        return str(self.meta.get("pipeline") or "springs")
 
     def valid_fitness(self) -> np.ndarray:
         """Fitness with diverged / non-finite entries as NaN."""

@@ -28,14 +28,16 @@ EVALUATIONS = ("thesis", "robust")
 
 def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float | None = None, replicas: int | None = None, chunk: int | None = None,
-                 evaluation: str | None = None, perturb: dict | None = None) -> Problem:
+                 evaluation: str | None = None, perturb: dict | None = None, pipeline: str | None = None) -> Problem:
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
 
     ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
     is the simulator's chunk (results do not depend on it; a sweep picks one that pads its batch little).
     ``evaluation``: ``"thesis"`` (default: one exact episode, eq. 4.6) or ``"robust"`` (the mean of
     several episodes with fresh perturbations each generation, :mod:`cpgjax.episode.perturb`, whose
-    ranges ``perturb`` overrides, e.g. ``{"replicas": 8}``).
+    ranges ``perturb`` overrides, e.g. ``{"replicas": 8}``).  ``pipeline``: the physics pipeline
+    (``"springs"`` or ``"exact"``, :data:`cpgjax.sim.model.PIPELINES`; None: the model file's ``Pipeline``, else
+    springs); the one the model runs on is recorded in the meta (``pipeline``), so that a resume cannot change it.
     """
     evaluation = evaluation or "thesis"
     if evaluation not in EVALUATIONS:
@@ -44,9 +46,11 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
         raise ValueError("perturbation ranges apply to the robust evaluation only (add --evaluation robust)")
     robust = Perturbations(**(perturb or {})) if evaluation == "robust" else None
     if model.startswith("analytic:"):
+        if pipeline is not None:
+            raise ValueError(f"{model}: a physics pipeline applies to a simulated model (.wl) only")
         problem = analytic_problem(model)
     else:
-        kw: dict = {"time": time, "terrain": terrain}
+        kw: dict = {"time": time, "terrain": terrain, "pipeline": pipeline}
         for k, v in (("delta", delta), ("replicas", replicas), ("chunk", chunk), ("robust", robust)):
             if v is not None:
                 kw[k] = v
@@ -54,13 +58,14 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
     if robust is not None and model.startswith("analytic:"):
         raise ValueError(f"{model}: the robust evaluation needs a simulated model (.wl)")
     cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas, "evaluation": evaluation,
-           "perturb": perturb or None}
+           "perturb": perturb or None, "pipeline": pipeline}
     return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
 
 
 def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float = DEFAULT_DELTA, chunk: int = 256, dt: float | None = None,
-                 replicas: int = 1, jitter: float = 1e-3, robust: Perturbations | None = None):
+                 replicas: int = 1, jitter: float = 1e-3, robust: Perturbations | None = None,
+                 pipeline: str | None = None):
     """A GA Problem for a `.wl` model: genome = CPG coefficients of every controlled joint.
 
     ``replicas > 1`` scores each genome as the mean over that many episodes, the first
@@ -73,8 +78,11 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     ``robust``: each genome is scored as the mean of ``robust.replicas`` episodes with fresh
     perturbations (:mod:`cpgjax.episode.perturb`) drawn from the keys the driver passes; the
     problem is then ``stochastic``.  ``fallen`` is the fraction of its episodes that fell.
+
+    ``pipeline``: the physics pipeline (None: the file's ``Pipeline``, else "springs"); the meta records the
+    model's (``pipeline``).
     """
-    model = load_model(wl_path, dt=dt, terrain=terrain)
+    model = load_model(wl_path, dt=dt, terrain=terrain, pipeline=pipeline)
     n_ctrl, n_coeff = model.n_ctrl, model.n_coeff
     T = model.time_max if time is None else float(time)
 
@@ -104,7 +112,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     desc = model.description
     meta = {
         "model_path": str(wl_path), "model_text": desc.text if desc else "", "time": T,
-        "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt,
+        "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline,
         "n_dof": n_ctrl, "harmonics": model.harmonics, "frequency": model.frequency,
         "evaluation": "thesis", "replicas": R, "jitter": float(jitter),
     }
@@ -155,7 +163,8 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
 
     desc = model.description
     meta = {"model_path": str(wl_path), "model_text": desc.text if desc else "", "time": T,
-            "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "n_dof": n_ctrl,
+            "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline,
+            "n_dof": n_ctrl,
             "harmonics": model.harmonics, "frequency": model.frequency, "evaluation": "robust",
             "replicas": R, "perturbations": p.to_dict()}
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)

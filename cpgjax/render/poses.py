@@ -150,12 +150,13 @@ def record_mujoco(model, coeffs, *, times: np.ndarray, delta: float | None = Non
                  fallen=bool(get("fallen", False)), diverged=bool(get("diverged", False)))
 
 
-def load_run(path: str, generation: int | None = None, *, terrain: str | None = None):
+def load_run(path: str, generation: int | None = None, *, terrain: str | None = None, pipeline: str | None = None):
     """(model, coeffs [n_ctrl, 2K+1], time, label) of a run file's best controller.
 
     ``generation``: the best of that generation (negative counts from the end) instead of the whole
     run's.  The model is the `.wl` text stored in the run (not the file on disk, which may have
-    changed), on the terrain and episode length the run was evolved with unless ``terrain`` is given.
+    changed), on the terrain, episode length and physics pipeline the run was evolved with unless ``terrain``
+    or ``pipeline`` is given.
     """
     from cpgjax.io.results import read_run
     from cpgjax.io.wl import parse_wl
@@ -179,7 +180,8 @@ def load_run(path: str, generation: int | None = None, *, terrain: str | None = 
         raise RenderError(f"{path}: the run holds no model (an analytic problem?): nothing to render")
     cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
     model = build_model(parse_wl(text, str(run.meta.get("model_path", path))),
-                        terrain=terrain if terrain is not None else cli.get("terrain"))
+                        terrain=terrain if terrain is not None else cli.get("terrain"),
+                        pipeline=pipeline or run.pipeline)
     time = cli.get("time") or run.meta.get("time") or model.time_max
     coeffs = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
     return model, coeffs, float(time), f"generation {gen}, #{idx} (GA fitness {fit:+.4f})"

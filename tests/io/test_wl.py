@@ -259,7 +259,7 @@ def _strip(d: Description) -> dict:
 
     def drop(x):
         if isinstance(x, dict):
-            return {k: drop(v) for k, v in x.items() if k != "line"}
+            return {k: drop(v) for k, v in x.items() if k != "line" and not k.endswith("_line")}
         if isinstance(x, list | tuple):
             return [drop(v) for v in x]
         return x
@@ -272,12 +272,33 @@ def _strip(d: Description) -> dict:
                                   " Dimensions .1\n}\n",
                                   "Terrain rough 0.02 0.1 3\nJointSpring 2e4 50\nFrictionSpring 1e5 1e3\n"
                                   "TimeStep 1e-4\nObject A {\n"
-                                  " Type Sphere\n Mass 1\n Dimensions .1\n}\n"])
+                                  " Type Sphere\n Mass 1\n Dimensions .1\n}\n",
+                                  "Pipeline EXACT\nObject A {\n Type Sphere\n Mass 1\n Dimensions .1\n}\n",
+                                  "Pipeline springs\n" + SMALL])
 def test_format_round_trip(tmp_path, text):
     d = parse_wl(text)
     again = load_wl(_write(tmp_path, format_wl(d), "again.wl"))
     assert _strip(again) == _strip(d)
     assert format_wl(again).splitlines()[1:] == format_wl(d).splitlines()[1:]
+
+
+@pytest.mark.parametrize(("line", "pipeline"), [("", None), ("Pipeline springs\n", "springs"),
+                                                ("pipeline Exact\n", "exact")])
+def test_pipeline_keyword(line, pipeline):
+    d = parse_wl("TimeMax 2\n" + line + OBJ_A)
+    assert (d.pipeline, d.pipeline_line) == (pipeline, 2 if line else 0)
+    written = [w for w in format_wl(d).splitlines() if w.startswith("Pipeline")]
+    assert written == ([f"Pipeline {pipeline}"] if pipeline else [])
+
+
+def test_pipeline_keyword_chooses_the_models_pipeline_and_the_command_overrides_it():
+    from cpgjax.sim.model import DEFAULT_DT, DEFAULT_DT_EXACT, build_model
+
+    plain, exact = parse_wl(OBJ_A), parse_wl("Pipeline exact\n" + OBJ_A)
+    assert (build_model(plain).pipeline, build_model(plain).dt) == ("springs", DEFAULT_DT)
+    assert (build_model(exact).pipeline, build_model(exact).dt) == ("exact", DEFAULT_DT_EXACT)
+    assert build_model(exact, pipeline="springs").pipeline == "springs"
+    assert build_model(plain, pipeline="exact").pipeline == "exact"
 
 
 def test_load_wl_accepts_pathlib(tmp_path):
@@ -394,6 +415,11 @@ BAD = [
      "Object 'A' is Fixed but belongs to Compound 'C'; put Fixed in the compound's block"),
     ("log-file-twice", OBJ_A + OBJ_B + "Log A x.log\nLog B x.log\n", 12,
      "log file 'x.log' is already used at line 11"),
+    ("unknown-pipeline", OBJ_A + "Pipeline exakt\n", 6,
+     "unknown pipeline 'exakt' (did you mean 'exact'?); choose one of springs, exact (usage: Pipeline springs|exact)"),
+    ("pipeline-without-value", "Pipeline\n" + OBJ_A, 1,
+     "Pipeline expects one pipeline (springs or exact), got 'nothing'"),
+    ("pipeline-twice", "Pipeline exact\nPipeline springs\n" + OBJ_A, 2, "Pipeline given twice (first at line 1)"),
 ]
 
 

@@ -288,12 +288,13 @@ def _write(pending, t_start: float) -> int:
 
 
 def sweep_problem(problem_args: dict[str, Any], batch: int | None = None) -> Problem:
-    """The Problem of a sweep (``{"model", "time", "terrain", "delta", "evaluation", "perturb"}``) from the one factory.
+    """The Problem of a sweep (``{"model", "time", "terrain", "delta", "evaluation", "perturb", "pipeline"}``) from the
+    one factory (every shard, in process or on Ray, builds it from the same dict).
 
     ``batch``: the sweep's evaluations per generation; the simulator's chunk is chosen to pad it
     little (results do not depend on the chunk; the robust evaluation's replicas ride in the batch).
     """
-    args = {k: problem_args.get(k) for k in ("time", "terrain", "delta", "evaluation", "perturb")}
+    args = {k: problem_args.get(k) for k in ("time", "terrain", "delta", "evaluation", "perturb", "pipeline")}
     if batch and args["evaluation"] == "robust":
         from cpgjax.episode.perturb import Perturbations
 

@@ -3,7 +3,7 @@
 The thesis shows only an excerpt of the format (Ch. 3.5.1: ``ColorDef``, ``TimeMax``,
 ``Simulate``, ``Display``, ``LogRate``, ``Friction``, ``Object``, ``Compound``, ``Joint``,
 ``Log``; Ch. 3.5.3: ``TextOnly``).  The rest of the grammar (``Gravity``, ``Ground``,
-``Terrain``, ``Servo``, ...) completes it so that one file describes a whole experiment;
+``Terrain``, ``Servo``, ``Pipeline``, ...) completes it so that one file describes a whole experiment;
 docs/wl-format.md is the reference.
 
 :class:`_Parser` dispatches each top-level statement: a setting goes into the
@@ -45,7 +45,7 @@ from cpgjax.io.wl.lexer import (
     suggest,
 )
 from cpgjax.sim.description import Description, LogDef, ServoDef, TerrainDef
-from cpgjax.sim.model import Model, build_model
+from cpgjax.sim.model import PIPELINES, Model, build_model
 from cpgjax.sim.terrain import TERRAIN_KINDS, check_terrain
 
 __all__ = ["parse_wl", "load_wl", "load_model"]
@@ -139,6 +139,9 @@ class _Parser(StatementReader):
             self.limited(st, "TimeStep", (dt,), TIME_STEP[1], "s (docs/simulator.md: the default is 5e-4)",
                          lo=TIME_STEP[0])
             d.time_step = dt
+        elif kw == "Pipeline":
+            d.pipeline = self.pipeline(st)
+            d.pipeline_line = st.line
         elif kw == "Ground":
             a, b = self.numbers(st, kw, usage, 2)
             if a <= 0 or b < 0:
@@ -191,6 +194,15 @@ class _Parser(StatementReader):
             d.logs.append(LogDef(body=st.args[0], file=st.args[1], line=st.line))
         else:  # pragma: no cover - every keyword is handled above
             raise AssertionError(kw)
+
+    def pipeline(self, st: Stmt) -> str:
+        """``Pipeline springs|exact`` (any case): which physics runs the model (:data:`PIPELINES`)."""
+        usage = TOP_KEYWORDS["Pipeline"]
+        name = self.name_arg(st, "Pipeline", "pipeline (springs or exact)")
+        if name.lower() not in PIPELINES:
+            raise self.err(st.line, f"unknown pipeline '{name}'{did_you_mean(name, PIPELINES)}; choose one of "
+                                    f"{', '.join(PIPELINES)} (usage: {usage})")
+        return name.lower()
 
     def servo(self, st: Stmt) -> ServoDef:
         kp, ki, kd, tau = self.numbers(st, "Servo", TOP_KEYWORDS["Servo"], 4)
