@@ -156,19 +156,46 @@ def test_the_two_pipelines_agree_on_a_servo_rig():
     """A servo-driven arm on a fixed block follows a sinusoid: the joint's path agrees across the pipelines
     (the springs stretch by a fraction of a millimetre, so the exact path is the limit of theirs)."""
     springs = rig(time=2)
-    exact = rig(time=2).replace(pipeline="exact", dt=5e-4)
+    exact = rig(time=2).replace(pipeline="exact", dt=2e-3)
     coeffs = np.zeros((1, 5), np.float32)
     coeffs[0, 1] = 0.5          # 0.5 rad at f0
-    a = simulate(springs, coeffs[0], time=2.0, record=True)["traj"]["angle"][:, 0]
-    b = simulate(exact, coeffs[0], time=2.0, record=True)["traj"]["angle"][:, 0]
-    assert np.abs(a).max() > 0.3
-    assert np.abs(a - b).max() < 0.01, np.abs(a - b).max()
+    a = simulate(springs, coeffs, time=2.0, record=True)["traj"]
+    b = simulate(exact, coeffs, time=2.0, record=True)["traj"]
+    assert np.abs(a["angle"]).max() > 0.3
+    # past the first 0.1 s (the servo saturates on the target's jump at t = 0, which the two steps resolve
+    # differently): measured 3e-4 rad apart at 2 ms against the springs' 0.5 ms
+    late = a["t"] > 0.1
+    assert np.abs(a["angle"][late] - b["angle"][late]).max() < 0.005
+
+
+HOPPER = """
+TimeMax 1
+Object Body {
+    Type Cube
+    Mass 2
+    Dimensions .2 .1 .05
+    Position 0 0 .25
+    Contact -.1 0 -.025
+    Contact .1 0 -.025
+}
+Object Leg {
+    Type Cube
+    Mass .3
+    Dimensions .02 .02 .2
+    Contact 0 0 -.1
+}
+Joint Hip {
+    Body .1 0 -.025
+    Leg 0 0 .1
+    ControlX
+}
+"""
 
 
 def test_results_do_not_depend_on_the_batch_size():
-    m = chain(gravity=9.81, contact=True).replace(pipeline="exact", dt=2e-3)
+    m = model_from(HOPPER, pipeline="exact")
     rng = np.random.default_rng(0)
-    c = rng.uniform(-0.5, 0.5, (40, 2, 5)).astype(np.float32)
+    c = rng.uniform(-0.5, 0.5, (40, 1, 5)).astype(np.float32)
     one = simulate(m, c[:3], time=0.5)
     many = simulate(m, c, time=0.5)
     for k in ("fitness", "distance"):
@@ -187,7 +214,7 @@ def test_a_robot_rooted_at_a_middle_body_walks_its_joints_the_files_way():
     assert t.roots[0] == m.track and (t.sign < 0).sum() >= 1
     s = initial_state(m, 1)
     s = s._replace(gq=s.gq + jnp.linspace(-0.3, 0.3, m.nj)[:, None])
-    s = step(m, s, (s.gq[m.ctrl_joint], jnp.zeros((m.n_ctrl, 1))))
+    s = jax.jit(lambda s: step(m, s, (s.gq[m.ctrl_joint], jnp.zeros((m.n_ctrl, 1)))))(s)
     angle, _, _ = joint_angles(m, quat_to_mat(s.q), s.w)
     np.testing.assert_allclose(np.asarray(angle), np.asarray(s.gq), atol=1e-5)
 
