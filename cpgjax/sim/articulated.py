@@ -46,12 +46,18 @@ from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
 
 
 def take(x, idx):
-    """``x[..., idx, :]`` for static indices (a no-op for the identity)."""
+    """``x[..., idx, :]`` for static indices, as a slice or a broadcast wherever it is one (a gather does not
+    fuse with what follows in XLA's CPU code: the step ran 1.7x slower with gathers everywhere)."""
     idx = np.asarray(idx)
-    if idx.shape[0] == x.shape[-2] and np.array_equal(idx, np.arange(idx.shape[0])):
+    n = len(idx)
+    if n == x.shape[-2] and np.array_equal(idx, np.arange(n)):
         return x
-    if len(idx) == 1:
-        return x[..., int(idx[0]):int(idx[0]) + 1, :]
+    i0 = int(idx[0]) if n else 0
+    if n and (idx == i0).all():                 # one item to many: a broadcast
+        one = x[..., i0:i0 + 1, :]
+        return one if n == 1 else jnp.broadcast_to(one, x.shape[:-2] + (n, x.shape[-1]))
+    if n and np.array_equal(idx, np.arange(i0, i0 + n)):
+        return x[..., i0:i0 + n, :]
     return jnp.take(x, idx, axis=-2)
 
 
@@ -524,7 +530,7 @@ def _contact_step(model, state, kin, fac, con, qdd, var):
     touch = (depth > 0).astype(depth.dtype)
     # each vertex's inverse mass along n, t1, t2: half solves, level by level of the vertices' bodies
     dirs = [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)] if fr.n is None else [fr.n, fr.t1, fr.t2]
-    k = [jnp.zeros_like(depth) for _ in range(4)]         # nn, 11, 12, 22
+    parts, order = [], []                                 # per level: (nn, 11, 12, 22) of its vertices
     for lvl in range(lv.depth + 1):
         sel = np.nonzero(con.level == lvl)[0]
         if not len(sel):
@@ -545,7 +551,11 @@ def _contact_step(model, state, kin, fac, con, qdd, var):
             ys.append((y, yr))
         vals = [fac.kdot(ys[0], ys[0], anc), fac.kdot(ys[1], ys[1], anc), fac.kdot(ys[1], ys[2], anc),
                 fac.kdot(ys[2], ys[2], anc)]
-        k = [kk.at[sel].set(v) for kk, v in zip(k, vals, strict=True)]
+        parts.append(jnp.stack(vals))
+        order.append(sel)
+    inv = np.empty(con.nc, np.int64)
+    inv[np.concatenate(order)] = np.arange(con.nc)
+    k = take(jnp.concatenate(parts, axis=1), inv)        # [4, nc, B] in the vertices' order
     # all touching vertices pushing at once along their normals: the response of each (one solve)
     nvec = jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], depth.dtype)[:, None, None], con.p.shape) \
         if fr.n is None else fr.n
