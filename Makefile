@@ -27,7 +27,7 @@ run: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check cpgjax tests
 
-# the fast suite (about 5 min of pytest on 2 idle cores); it ends with its slowest tests and its time.
+# the fast suite; it ends with its ten slowest tests, its time (wall and CPU) and the load it ran under.
 # pytest's "no tests ran" (exit 5) fails like any other failure.
 PYTEST := $(BIN)/python -m pytest -q --durations=10
 test: $(STAMP) lint
