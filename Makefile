@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test test-all lint bench thesis setup clean readme
+.PHONY: run test test-all test-slow lint bench thesis setup clean readme
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -27,12 +27,19 @@ run: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check cpgjax tests
 
+# the fast suite; it ends with its ten slowest tests, its time (wall and CPU) and the load it ran under.
+# pytest's "no tests ran" (exit 5) fails like any other failure.
+PYTEST := $(BIN)/python -m pytest -q --durations=10
 test: $(STAMP) lint
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(PYTEST) -m "not slow"
 
-# every test, the long checks marked slow included
+# every test, the long checks marked slow included (docs/architecture.md, "Tests", lists them)
 test-all: $(STAMP) lint
-	$(BIN)/python -m pytest -q
+	$(PYTEST)
+
+# only the tests marked slow (CI runs them after `make test`)
+test-slow: $(STAMP)
+	$(PYTEST) -m slow
 
 # rewrite the README's command examples from a fresh run (tests/test_readme.py checks them)
 readme: $(STAMP)
