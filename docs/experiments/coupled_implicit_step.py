@@ -33,7 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.contact import _frame, contact_body_ranges
+from cpgjax.sim.contact import contact_body_ranges, contact_frame
 from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.rotation import cross, dot, matvec, quat_integrate, quat_to_mat
 
@@ -350,7 +350,7 @@ def step_implicit(model, state, ctrl, var=None):
     groups = {b: (lo_, hi_) for b, lo_, hi_ in contact_body_ranges(model)}
     if nc:
         cp, rc = p[:, ct], r[:, ct]
-        depth, fr = _frame(model, cp, var)
+        depth, fr = contact_frame(model, cp, var)
         touch = depth > 0
         if fr.n is None:
             zz, oo = jnp.zeros_like(depth), jnp.ones_like(depth)
