@@ -138,3 +138,11 @@ Object Box {{
     Orientation {-slope} 0 0
 }}
 """)
+
+
+def period(t, angle):
+    """Mean period of a recorded oscillation from its upward zero crossings (linear interpolation)."""
+    s = np.sign(angle)
+    idx = np.where((s[:-1] < 0) & (s[1:] >= 0))[0]
+    tc = t[idx] - angle[idx] * (t[idx + 1] - t[idx]) / (angle[idx + 1] - angle[idx])
+    return np.diff(tc).mean()

@@ -1,17 +1,9 @@
 """Joints (cpgjax/sim/joints.py and servo.py): pivot springs, pendulum, servo, limits."""
 
 import numpy as np
-from simcases import pendulum, rig
+from simcases import pendulum, period, rig
 
 from cpgjax.episode.batch import simulate
-
-
-def _period(t, angle):
-    """Mean period from the upward zero crossings (linear interpolation)."""
-    s = np.sign(angle)
-    idx = np.where((s[:-1] < 0) & (s[1:] >= 0))[0]
-    tc = t[idx] - angle[idx] * (t[idx + 1] - t[idx]) / (angle[idx + 1] - angle[idx])
-    return np.diff(tc).mean()
 
 
 def test_pendulum_has_the_small_angle_period_of_its_inertia():
@@ -22,7 +14,7 @@ def test_pendulum_has_the_small_angle_period_of_its_inertia():
     d = L / 2
     I_pivot = mass * (L**2 + 0.02**2) / 12 + mass * d**2
     expected = 2 * np.pi * np.sqrt(I_pivot / (mass * 9.81 * d))
-    measured = _period(r["traj"]["t"], angle)
+    measured = period(r["traj"]["t"], angle)
     assert abs(measured - expected) / expected < 0.01, (measured, expected)
     # the pivot held: the springs stretch by a fraction of a millimetre
     assert r["pivot_err"] < 1e-3
