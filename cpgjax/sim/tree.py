@@ -7,9 +7,9 @@ none if the root is ``Fixed``) and one angle per revolute joint, so that the joi
 step is no longer bound by the pivot springs' stiffness.
 
 The tree comes from the joints and is rooted at the tracked body (``Track``); a joint written from child
-to parent is walked the other way (its angle keeps the file's sign).  DOFs are numbered tree by tree:
-the root's six (3 linear, then 3 angular) first, then the joints in depth-first order, so that every
-DOF's parent comes before it (the sparsity that `sim.articulated`'s factorization keeps).
+to parent is walked the other way (its angle keeps the file's sign).  :class:`Levels` groups the bodies
+by depth: `sim.articulated` works one depth at a time, a root's six DOFs (3 linear, then 3 angular) above
+its first level's joints, each joint's DOF above its children's (the sparsity its factorization keeps).
 """
 
 from __future__ import annotations
@@ -36,24 +36,6 @@ class Tree:
     r_child: np.ndarray           # [3, nj] the pivot in the tree child's frame, from its CM
     axis: np.ndarray              # [3, nj] the joint axis (the same in both frames)
     axis_index: tuple[int, ...]   # [nj] 0, 1, 2 for an axis along x, y, z
-    nv: int                       # velocity DOFs
-    dof_parent: tuple[int, ...]   # [nv] parent DOF (-1 for none)
-    body_dof: tuple[int, ...]     # [nb] the last DOF that moves the body (-1: a fixed root)
-    joint_dof: tuple[int, ...]    # [nj] the DOF of each joint
-    root_dof: tuple[int, ...]     # [nb] for a free root: its first DOF (-1 otherwise)
-
-    def ancestors(self, dof: int) -> list[int]:
-        """The DOFs above ``dof``, nearest first."""
-        out, d = [], self.dof_parent[dof]
-        while d >= 0:
-            out.append(d)
-            d = self.dof_parent[d]
-        return out
-
-    def path(self, body: int) -> list[int]:
-        """Every DOF that moves ``body``, from its own up to its root's first (nearest first)."""
-        d = self.body_dof[body]
-        return [] if d < 0 else [d, *self.ancestors(d)]
 
 
 def build_tree(model, desc) -> Tree:
@@ -113,27 +95,10 @@ def build_tree(model, desc) -> Tree:
     r_parent = np.where(sign[None] > 0, pa, pb)
     r_child = np.where(sign[None] > 0, pb, pa)
     axis_index = tuple("XYZ".index(j.axis.upper()) for j in jd)
-    # DOFs
-    dof_parent: list[int] = []
-    body_dof, root_dof, joint_dof = [-1] * nb, [-1] * nb, [-1] * nj
-    for b in order:
-        if parent[b] < 0:
-            if not model.fixed[b]:
-                first = len(dof_parent)
-                dof_parent.extend([-1] + [first + i for i in range(5)])
-                root_dof[b] = first
-                body_dof[b] = first + 5
-        else:
-            k = joint[b]
-            joint_dof[k] = len(dof_parent)
-            dof_parent.append(body_dof[parent[b]])
-            body_dof[b] = joint_dof[k]
     return Tree(order=tuple(order), parent=tuple(parent), root=tuple(root), roots=tuple(roots),
                 free_root=tuple(parent[b] < 0 and not bool(model.fixed[b]) for b in range(nb)),
                 joint=tuple(joint), sign=sign, r_parent=r_parent, r_child=r_child,
-                axis=np.asarray(model.j_axis, float), axis_index=axis_index, nv=len(dof_parent),
-                dof_parent=tuple(dof_parent), body_dof=tuple(body_dof), joint_dof=tuple(joint_dof),
-                root_dof=tuple(root_dof))
+                axis=np.asarray(model.j_axis, float), axis_index=axis_index)
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,7 +13,7 @@ from cpgjax.episode.batch import simulate
 from cpgjax.errors import DescriptionError
 from cpgjax.sim.state import initial_state
 from cpgjax.sim.step import step
-from cpgjax.sim.tree import build_tree
+from cpgjax.sim.tree import build_levels, build_tree
 
 
 def test_pendulum_has_the_small_angle_period_of_its_inertia_at_a_2_ms_step():
@@ -277,14 +277,18 @@ Joint J3 {
         model_from(text, pipeline="exact")
 
 
-def test_the_tree_numbers_every_dof_after_its_parent():
+def test_the_tree_of_the_quadruped_has_its_legs_by_depth():
     from cpgjax.io.wl import load_model
 
     m = load_model("models/quadruped.wl", pipeline="exact")
     t = build_tree(m, m.description)
-    assert t.nv == 6 + m.nj
-    assert all(p < d for d, p in enumerate(t.dof_parent))
-    # every knee hangs from its hip, every hip from the body's floating base
-    for k, name in enumerate(m.joint_names):
-        parent = t.dof_parent[t.joint_dof[k]]
-        assert parent == (5 if name.startswith("Hip") else t.joint_dof[m.joint_names.index("Hip" + name[4:])])
+    lv = build_levels(t)
+    names = m.body_names
+    assert [names[b] for b in lv.bodies[0]] == ["Body"] and list(lv.free) == [True]
+    # every upper leg hangs from the body, every lower leg from its own upper leg, each by its own joint
+    for i, b in enumerate(lv.bodies[2]):
+        upper = lv.bodies[1][lv.parent[2][i]]
+        assert names[b].replace("LegL", "") == names[upper].replace("LegU", "")
+        assert m.joint_names[lv.joint[2][i]] == "Knee" + names[b][4:]
+    assert sorted(m.joint_names[k] for k in lv.joint[1]) == sorted(n for n in m.joint_names if n.startswith("Hip"))
+    assert (t.sign > 0).all()
