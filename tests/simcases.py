@@ -57,6 +57,47 @@ Joint Hinge {{
 """)
 
 
+def double_pendulum():
+    """Two rods (1 kg, 0.4 m; 0.5 kg, 0.3 m) on passive joints about x, hanging from a fixed block, released
+    at 1 rad and 0.5 rad: chaotic, undamped."""
+    return model_from("""
+TimeMax 2
+LogRate 100
+Object Rig {
+    Type Cube
+    Mass 5
+    Dimensions .1 .1 .1
+    Position 0 0 2
+    Fixed
+    NoContact
+}
+Object A {
+    Type Cube
+    Mass 1
+    Dimensions .02 .02 .4
+    NoContact
+}
+Object B {
+    Type Cube
+    Mass 0.5
+    Dimensions .02 .02 .3
+    NoContact
+}
+Joint J1 {
+    Rig 0 0 -.05
+    A 0 0 .2
+    Orientation 1.0 0 0
+    PassiveX
+}
+Joint J2 {
+    A 0 0 -.2
+    B 0 0 .15
+    Orientation 0.5 0 0
+    PassiveX
+}
+""")
+
+
 def rig(limits=(-1.5, 1.5), time=4, servo="60 0 1 17.5"):
     """An upper leg of the quadruped on a controlled hip, hanging from a fixed block (a test rig)."""
     return model_from(f"""

@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from simcases import box, chain, energy, model_from, pendulum, period, rig
+from simcases import box, chain, double_pendulum, energy, model_from, pendulum, period, rig
 
 from cpgjax.episode.batch import simulate
 from cpgjax.errors import DescriptionError
@@ -89,42 +89,7 @@ def test_a_free_chain_in_space_keeps_its_momentum_and_energy_to_the_steps_first_
 
 
 def test_a_passive_double_pendulum_keeps_its_energy_without_damping():
-    m = model_from("""
-TimeMax 2
-LogRate 100
-Object Rig {
-    Type Cube
-    Mass 5
-    Dimensions .1 .1 .1
-    Position 0 0 2
-    Fixed
-    NoContact
-}
-Object A {
-    Type Cube
-    Mass 1
-    Dimensions .02 .02 .4
-    NoContact
-}
-Object B {
-    Type Cube
-    Mass 0.5
-    Dimensions .02 .02 .3
-    NoContact
-}
-Joint J1 {
-    Rig 0 0 -.05
-    A 0 0 .2
-    Orientation 1.0 0 0
-    PassiveX
-}
-Joint J2 {
-    A 0 0 -.2
-    B 0 0 .15
-    Orientation 0.5 0 0
-    PassiveX
-}
-""", pipeline="exact", dt=1e-3)
+    m = double_pendulum().replace(pipeline="exact", dt=1e-3)
     s0 = initial_state(m, 1)
     _, traj = _run(m, s0, 2000)
     tr = {"x": traj.x[:, :, :, 0], "v": traj.v[:, :, :, 0], "w": traj.w[:, :, :, 0], "q": traj.q[:, :, :, 0]}
