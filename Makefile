@@ -57,3 +57,13 @@ thesis: $(STAMP)
 
 clean:
 	rm -rf $(VENV) build *.egg-info
+
+# redraw the README's GIFs with today's code (tests/test_figures.py checks each GIF's line in README.md)
+.PHONY: figures
+figures: $(STAMP)
+	export MUJOCO_GL=$${MUJOCO_GL:-egl}; \
+	$(BIN)/cpgjax render models/quadruped.wl --ctl models/quadruped-trot.ctl --time 6 --camera fixed --fps 15 --size 320x240 --out docs/figures/render-trot.gif && \
+	$(BIN)/cpgjax render models/quadruped.wl --ctl models/quadruped-robust.ctl --time 6 --camera fixed --fps 15 --size 320x240 --out docs/figures/render-evolved.gif && \
+	$(BIN)/cpgjax render models/hexapod.wl --ctl models/hexapod.ctl --time 6 --camera fixed --fps 15 --size 320x240 --out docs/figures/render-hexapod.gif && \
+	$(BIN)/cpgjax render models/worm.wl --ctl models/worm.ctl --time 6 --camera side --fps 10 --size 320x240 --out docs/figures/render-worm.gif && \
+	$(BIN)/cpgjax render models/car.wl --time 3.5 --camera track --fps 10 --size 240x180 --out docs/figures/render-car.gif

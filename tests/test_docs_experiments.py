@@ -1,5 +1,5 @@
-"""docs/experiments/coupled_implicit_step.py, the measured prototype of docs/simulator.md, still runs and says
-what the docs say of it: with pivot springs 10x the thesis's it stands where the explicit step stands (the
+"""docs/experiments/coupled_implicit_step.py, the measured prototype of docs/results/engine-agreement.md, still
+runs and says what the docs say of it: with pivot springs 10x the thesis's it stands where the explicit step stands (the
 statics are exact) and walks the hand-written trot at a 2 ms step, 16x the explicit springs' limit."""
 
 from __future__ import annotations

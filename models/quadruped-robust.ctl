@@ -1,0 +1,15 @@
+# An evolved gait that walks (the README's GIF row).  Evolved by
+#   cpgjax sweep models/quadruped.wl --gamma 0.01 --pocket 4 --seeds 2 --generations 40 --evaluation robust --perturb fall_survival=on,bristle=3 --out runs/gif-sweep
+#   (402 s on 2 cores shared with other jobs), then seed 1's best:
+#   cpgjax best runs/gif-sweep/ga_n20_mu0.2_g0.01_p4_xoff/s1.h5 --ctl models/quadruped-robust.ctl
+# It walks 1.32 m in 10 s and stays up; `cpgjax transfer` on its run: 0.066 in MuJoCo C against 0.131 here
+# (ratio 0.50), no falls in 32 jittered replays in either engine (2026-11-25).
+0.141703
+0.13278216  0.2864794  0.14180012  0.035722304  -0.23589821
+0.109958105  0.21796425  0.17252646  0.13770579  -0.1665127
+0.2923415  0.25485843  0.06354816  -0.28275943  0.15358639
+0.40307954  -0.052703954  -0.18554637  -0.18579355  -0.042521283
+0.030409263  -0.010205726  -0.07769226  0.36300763  0.02864258
+-0.2856396  0.18844235  -0.043011278  -0.1750227  -0.15594117
+-0.16861024  0.25266656  0.04800183  -0.21239936  -0.13265681
+0.01708689  0.18177675  0.11220449  0.2947472  0.12627554
