@@ -1,4 +1,4 @@
-# The quadruped of models/quadruped.wl with joints 10x stiffer (project issue 11, docs/crosscheck.md):
+# The quadruped of models/quadruped.wl with joints 10x stiffer (docs/crosscheck.md):
 # the thesis's pivot springs (alpha 3e5 N/m) let a loaded joint's axis tilt by degrees, which makes this
 # robot fall more often than the same robot in MuJoCo (exact hinges) and which evolved gaits exploit.
 # Springs this stiff need a 4x smaller step with explicit springs (cpgjax study-dt): 4x the cost.

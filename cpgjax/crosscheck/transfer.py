@@ -30,7 +30,7 @@ from cpgjax.io.sweepdir import run_files
 from cpgjax.io.wl import parse_wl
 from cpgjax.sim.model import build_model
 
-# What "carries over" means (project issue 11): the gait walks in MuJoCo at >= 70 % of the fitness it
+# What "carries over" means: the gait walks in MuJoCo at >= 70 % of the fitness it
 # scores here, and falls in at most 2 of 32 jittered MuJoCo replays.
 MIN_RATIO = 0.7
 MAX_FALLS = 2

@@ -1,4 +1,4 @@
-"""Episodes drawn frame by frame with MuJoCo's renderer and encoded to MP4 / GIF (project issue 13).
+"""Episodes drawn frame by frame with MuJoCo's renderer and encoded to MP4 / GIF.
 
 Rendering is a separate step on a *recorded* trajectory, never part of an evaluation:
 
