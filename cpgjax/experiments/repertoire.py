@@ -183,7 +183,7 @@ def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callbac
     return {"path": path, "kind": algo.kind, "completed": completed, "generations": algo.generations,
             "evaluations_this_call": evals, "wall_time_this_call": elapsed, "compile_time": compile_time,
             "evals_per_second": evals / elapsed if elapsed > 0 else float("nan"), **info,
-            "cells": grid.n_cells}
+            "cells": grid.n_cells, "archive": jax.tree.map(lambda a: np.asarray(a)[0], jax.device_get(state1[0]))}
 
 
 @dataclass
