@@ -249,7 +249,8 @@ def cmd_follow(args: argparse.Namespace) -> int:
         if f:
             o.check_output_file(f, "--out" if f == args.out else "--video")
     r = follow(args.model, args.repertoire, args.path, cycles=args.cycles, video=args.video)
-    print(f"{args.path}: {'finished' if r['finished'] else 'did not finish'} in {r['time']:.1f} s "
+    state = "finished" if r["finished"] else f"did not finish ({r['fell']})" if r["fell"] else "did not finish"
+    print(f"{args.path}: {state} in {r['time']:.1f} s "
           f"({r['cycles']} gait cycles), mean distance from the path {r['mean_error']:.3f} m, "
           f"waypoints {r['reached']} of {r['waypoints']}")
     if args.out:
