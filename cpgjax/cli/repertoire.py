@@ -1,6 +1,7 @@
 """The ``repertoire``, ``adapt`` and ``follow`` subcommands of ``cpgjax`` (docs/repertoire.md).
 
-``repertoire``: MAP-Elites into a run file (:mod:`cpgjax.experiments.repertoire`); ``adapt``: Intelligent
+``repertoire``: MAP-Elites into a run file (:mod:`cpgjax.experiments.repertoire`), ``repertoire-plot``: its
+figure (:mod:`cpgjax.plots.repertoire`); ``adapt``: Intelligent
 Trial and Error on a damaged robot (:mod:`cpgjax.experiments.adapt`); ``follow``: walk a path by choosing,
 every gait cycle, a gait of the repertoire (:mod:`cpgjax.experiments.follow`).  Every default comes from
 :class:`~cpgjax.optim.mapelites.MEConfig` and the other configuration dataclasses.
@@ -144,6 +145,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
 
+    p = subparsers.add_parser("repertoire-plot", help="a repertoire's heatmap, coverage and QD-score per evaluation")
+    p.add_argument("repertoire", metavar="REP.h5")
+    p.add_argument("--out", default=None, metavar="FIG.png", help="figure file (default: REP with .png)")
+    p.set_defaults(func=cmd_plot)
+
 
 def _stored(path: str | None, resume: bool) -> tuple[dict, dict]:
     if not (resume and path and os.path.exists(path)):
@@ -239,6 +245,19 @@ def _study(args: argparse.Namespace) -> int:
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from cpgjax.experiments.repertoire import read_repertoire
+    from cpgjax.plots.repertoire import figure
+
+    out = args.out or os.path.splitext(args.repertoire)[0] + ".png"
+    o.check_output_file(out)
+    rep = read_repertoire(args.repertoire)
+    figure(rep, out)
+    print(f"wrote {out}: {int(rep.filled.sum())} of {rep.grid.n_cells} cells after {int(rep.evaluations[-1])} "
+          f"evaluations, QD-score {rep.qd_score[-1]:.4g}")
     return 0
 
 
