@@ -66,10 +66,20 @@ def problem_grid(problem: Problem, cfg: me.MEConfig) -> me.Grid:
     return me.make_grid(cfg, names)
 
 
+def _valid(run) -> np.ndarray:
+    """[G, N]: the children insertion considered (not diverged; not fallen unless the run kept them)."""
+    ok = ~np.asarray(run.diverged)
+    fall = None if run.config.get("keep_fallen") else run.meta.get("fall_metric")
+    if fall:
+        ok &= np.asarray(run.metrics[fall]) == 0
+    return ok
+
+
 def _rows_of(run, names):
     d = np.stack([run.metrics[k] for k in names], -1)
+    ok = _valid(run)
     for g in range(run.completed):
-        yield run.genomes[g], run.fitness[g], d[g], run.state["cells"][g], ~run.diverged[g]
+        yield run.genomes[g], run.fitness[g], d[g], run.state["cells"][g], ok[g]
 
 
 def run_repertoire(problem: Problem, cfg: me.MEConfig, out: str | os.PathLike[str], *, resume: bool = False,
@@ -201,6 +211,7 @@ class Repertoire:
     evaluations: np.ndarray   # [generations] evaluations after each generation
     n_filled: np.ndarray      # [generations]
     qd_score: np.ndarray      # [generations]
+    metrics: dict             # name -> [C]: the problem's metrics of each elite's own evaluation (NaN where empty)
 
     @property
     def cells(self) -> np.ndarray:
@@ -245,7 +256,32 @@ def read_repertoire(path: str | os.PathLike[str]) -> Repertoire:
         raise ResultsError(f"{os.fspath(path)}: the repertoire has no generation yet")
     st = me.replay(grid.n_cells, G, _rows_of(run, grid.names))
     N = int(run.attrs["population"])
+    src = elite_sources(run, grid.n_cells)
+    ok = src >= 0
+    metrics = {}
+    for k, v in run.metrics.items():
+        m = np.full(grid.n_cells, np.nan, np.float32)
+        m[ok] = v.reshape(-1)[src[ok]]
+        metrics[k] = m
     return Repertoire(os.fspath(path), grid, np.asarray(st.genomes), np.asarray(st.fitness),
                       np.asarray(st.descriptors), np.asarray(st.filled), run.meta, run.config,
                       N * np.arange(1, run.completed + 1), np.asarray(run.state["filled"]),
-                      np.asarray(run.state["qd_score"]))
+                      np.asarray(run.state["qd_score"]), metrics)
+
+
+def elite_sources(run, n_cells: int) -> np.ndarray:
+    """[C]: the flat index (generation x batch + child) of each cell's elite in the run's rows (-1: empty).
+
+    The elite of a cell is the first child, in the order of the rows, with the highest fitness of the valid
+    children that fell in it (insertion replaces only on a strictly higher fitness, ties to the first).
+    """
+    cells = np.asarray(run.state["cells"]).reshape(-1)
+    fit = np.asarray(run.fitness, np.float32).reshape(-1)
+    ok = _valid(run).reshape(-1) & np.isfinite(fit) & (cells >= 0)
+    i = np.flatnonzero(ok)
+    order = np.lexsort((i, -fit[i], cells[i]))        # by cell, then fitness descending, then first
+    i = i[order]
+    first = np.r_[True, cells[i][1:] != cells[i][:-1]]
+    out = np.full(n_cells, -1, np.int64)
+    out[cells[i][first]] = i[first]
+    return out

@@ -1,5 +1,9 @@
 """The problem of a repertoire: the thesis's fitness and a behaviour descriptor, on an intact or damaged robot.
 
+A fall (the body tilted past 60 degrees, :data:`cpgjax.episode.rollout.FALL_TILT`) ends the episode's fitness
+(the rollout's ``fall_ends``) and is flagged in the metric ``down``, which MAP-Elites reads as "not a gait"
+(``meta["fall_metric"]``; :func:`cpgjax.optim.mapelites.mapelites_algorithm`).
+
 :func:`behaviour_problem` is :func:`cpgjax.optim.factory.wl_problem`'s episode (eq. 4.5-4.6, one exact
 episode) with the rollout's descriptors switched on (:mod:`cpgjax.episode.descriptors`): its ``evaluate``
 returns, besides the fitness and the usual metrics, one ``[N]`` metric per descriptor dimension
@@ -56,8 +60,8 @@ def behaviour_problem(model_path: str, *, descriptor: str = "duty", time: float 
         g = jnp.asarray(genomes, jnp.float32).reshape(-1, n_ctrl, n_coeff)
         if damages:
             g = g * mask
-        r = evaluate(model, g, time=T, delta=delta, chunk=chunk, descriptors=True)
-        out = {k: r[k] for k in ("fitness", "diverged", "distance", "speed", "tilt", "fallen")}
+        r = evaluate(model, g, time=T, delta=delta, chunk=chunk, descriptors=True, fall_ends=True)
+        out = {k: r[k] for k in ("fitness", "diverged", "distance", "speed", "tilt", "fallen", "down")}
         for i, n in enumerate(leg_names):
             out[f"duty_{n}"] = r["duty"][i]
         out["heading_speed"], out["turn"] = r["heading_speed"], r["turn"]
@@ -67,7 +71,7 @@ def behaviour_problem(model_path: str, *, descriptor: str = "duty", time: float 
             "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline, "n_dof": n_ctrl,
             "harmonics": model.harmonics, "frequency": model.frequency, "evaluation": "thesis",
             "descriptor": descriptor, "descriptor_metrics": json.dumps(list(dims)),
-            "legs": json.dumps(list(leg_names)), "damage": dmg.describe(damages),
+            "legs": json.dumps(list(leg_names)), "damage": dmg.describe(damages), "fall_metric": "down",
             "cli_problem_args": json.dumps({"time": time, "terrain": terrain, "delta": delta,
                                             "pipeline": pipeline, "descriptor": descriptor, "damage": damage})}
     return Problem(name=str(model_path), n_genes=model.n_genes, base_genome=np.asarray(base_genome(intact)),

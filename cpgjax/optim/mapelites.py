@@ -64,6 +64,7 @@ class MEConfig:
     sigma_iso: float = 0.01                # iso-line: isotropic std, in box widths
     sigma_line: float = 0.2                # iso-line: std along the line between two elites
     qd_offset: float = -1.0                # fitness lower bound for the QD-score (m/s: no gait is slower)
+    keep_fallen: bool = False              # insert robots that fell too (the problem's ``meta["fall_metric"]``)
     seed: int = 0
     chunk: int = 4                         # generations per jitted lax.scan chunk
 
@@ -207,14 +208,22 @@ def vary(cfg: MEConfig, state: MEState, key, gen, batch: int, lo: float, hi: flo
     return jnp.where((gen < cfg.init_batches) | (n == 0), rand, child)
 
 
+def fall_metric(problem: Problem, cfg: MEConfig) -> str | None:
+    """The metric that flags a robot that fell (``meta["fall_metric"]``), unless ``cfg.keep_fallen``."""
+    return None if cfg.keep_fallen else problem.meta.get("fall_metric")
+
+
 def mapelites_algorithm(problem: Problem, cfg: MEConfig, grid: Grid) -> Algorithm:
     """MAP-Elites (``cfg.method``) on ``problem`` over ``grid`` as an :class:`Algorithm`.
 
     The problem's metrics named ``grid.names`` are the descriptors (``Algorithm.descriptor``).  The state
     is the archive (:class:`MEState`); ``propose`` varies it (:func:`vary`), ``update`` inserts the batch.
+    A child that fell (the problem's :func:`fall_metric` non-zero) is never inserted: a robot lying on its
+    side "turns" and "moves" as it tumbles, and its descriptor says nothing of a gait.
     """
     lo, hi, G, N = float(problem.lower), float(problem.upper), problem.n_genes, cfg.batch
     D = len(grid.names)
+    fall = fall_metric(problem, cfg)
 
     def init(params, key):
         return empty_archive(grid.n_cells, G, D, N)
@@ -223,12 +232,15 @@ def mapelites_algorithm(problem: Problem, cfg: MEConfig, grid: Grid) -> Algorith
         return vary(cfg, state, key, gen, N, lo, hi)
 
     def update(params, state, genomes, fitness, diverged, key, gen, desc):
+        valid = ~diverged if fall is None else ~diverged & (desc[:, D] == 0)
+        desc = desc[:, :D]
         cells = cell_index(grid, desc)
-        return insert(state, genomes, fitness, desc, cells, ~diverged)
+        return insert(state, genomes, fitness, desc, cells, valid)
 
     return Algorithm(cfg.method, N, cfg.generations, cfg.to_dict(), (), init, propose, update,
                      rate=lambda params, gen: jnp.float32(jnp.nan),
-                     resumable_changes=("chunk", "evaluations"), descriptor=grid.names)
+                     resumable_changes=("chunk", "evaluations"),
+                     descriptor=tuple(grid.names) + ((fall,) if fall else ()))
 
 
 _insert_jit = jax.jit(insert)
