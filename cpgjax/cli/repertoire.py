@@ -216,7 +216,7 @@ def cmd_adapt(args: argparse.Namespace) -> int:
     for i, t in enumerate(r["trials"]):
         print(f"trial {i + 1:>2}: cell {t['cell']:>6}  predicted {t['predicted']:+.4f}  observed {t['fitness']:+.4f}")
     print(f"{r['damage']}: best {r['best_fitness']:+.4f} (cell {r['best_cell']}) after {len(r['trials'])} trials; "
-          f"intact elite there {r['prior_best']:+.4f}; {'stopped: ' + r['stop']}")
+          f"the repertoire's best on the intact robot {r['prior_best']:+.4f}; stopped: {r['stop']}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)

@@ -97,7 +97,7 @@ def _cycle_fn(model, steps: int, sub: int):
 
 
 def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = None, reach: float = 0.2,
-           video: str | None = None, fps: float | None = None) -> dict:
+           video: str | None = None, min_speed: float = 0.5, max_tilt: float | None = None) -> dict:
     """Walk ``path`` choosing gaits of ``repertoire`` (see the module docstring); returns the walk and its measures."""
     rep = read_repertoire(repertoire)
     if tuple(rep.grid.names) != ("heading_speed", "turn"):
@@ -113,7 +113,11 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
     steps -= steps % sub
     idx = rep.cells
     speed = rep.descriptors[idx, 0]
-    fwd = speed >= 0.5 * speed.max() if speed.max() > 0 else np.ones(len(idx), bool)
+    fwd = speed >= min_speed * speed.max() if speed.max() > 0 else np.ones(len(idx), bool)
+    if max_tilt is not None and "tilt" in rep.metrics:
+        fwd &= rep.metrics["tilt"][idx] <= max_tilt
+    if not fwd.any():
+        raise ResultsError(f"{repertoire}: no elite walks forward with a mean tilt <= {max_tilt} rad")
     cand = idx[fwd]
     run = _cycle_fn(model, steps, sub)
     state = initial_state(model, 1)
