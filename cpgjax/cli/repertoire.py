@@ -229,10 +229,12 @@ def _study(args: argparse.Namespace) -> int:
     r = study(args.model, args.repertoire, args.damage, level=args.level, trials=args.trials or 50,
               ga_generations=args.ga_generations, progress=True)
     fmt = lambda v: "-" if v is None else str(v)  # noqa: E731
-    print(f"{'damage':<22} {'seed':>4} {'elites':>6} {'R':>8} {'IT&E trials':>11} {'GA evals':>8}")
+    print(f"{'damage':<22} {'seed':>4} {'elites':>6} {'R':>8} {'IT&E trials':>11} {'GA evals':>8}   "
+          "IT&E's own stop: trials, best/R")
     for row in r["rows"]:
         print(f"{row['damage']:<22} {row['seed']:>4} {row['elites']:>6} {row['R']:>8.4f} {fmt(row['ite_trials']):>11} "
-              f"{fmt(row.get('ga_evaluations')):>8}")
+              f"{fmt(row.get('ga_evaluations')):>8}   {row['ite_stop_trial']:>2}, "
+              f"{row['ite_stop_fitness'] / row['R']:.2f}")
     import numpy as np
 
     for d in dict.fromkeys(row["damage"] for row in r["rows"]):

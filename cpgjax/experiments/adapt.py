@@ -10,7 +10,8 @@ repertoire's length, terrain and pipeline; the search sees only the trial's fitn
   robot (one batched simulation; a robot's result does not depend on its batch, so each equals the trial
   of that elite), the best of them;
 - **IT&E**: the number of trials until the best trial reaches ``level x R`` (default 70 %), with the
-  stopping rule off (``alpha = 1``) so that the count is not cut short;
+  stopping rule off so that the count is not cut short, and where the stopping rule would have stopped
+  (``ite_stop_trial``, ``ite_stop_fitness``: what a robot running ``cpgjax adapt`` gets);
 - **the GA from scratch** (the thesis's GA, :mod:`cpgjax.optim.ga`, its seed the repertoire's) on the
   damaged robot: the number of evaluations until its best so far reaches the same level.
 """
@@ -112,13 +113,16 @@ def study(model: str, repertoires: list[str], damages: list[str], *, level: floa
             idx = rep.cells
             scores = damaged_scores(problem, rep.genomes[idx])
             R = float(np.nanmax(scores))
-            cfg = ITEConfig(trials=min(trials, len(idx)), alpha=1.0)
-            r = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]), cfg)
+            cfg = ITEConfig(trials=min(trials, len(idx)))
+            r = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]), cfg, stop=False)
             ys = np.maximum.accumulate([t["fitness"] for t in r["trials"]])
+            stopped = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]),
+                          ITEConfig(trials=min(trials, len(idx))))
             row = {"damage": problem.meta["damage"], "repertoire": rep.path, "seed": int(rep.config.get("seed", 0)),
                    "elites": int(len(idx)), "R": R, "intact_best": float(rep.fitness[idx].max()),
                    "ite_trials": first_reaching(ys, level * R), "ite_best": float(ys[-1]),
-                   "ite_trials_run": len(ys)}
+                   "ite_trials_run": len(ys), "ite_stop_trial": len(stopped["trials"]),
+                   "ite_stop_fitness": stopped["best_fitness"]}
             if ga_generations:
                 cfg_ga = GAConfig(population=ga_population, generations=ga_generations,
                                   seed=int(rep.config.get("seed", 0)))

@@ -75,9 +75,10 @@ def posterior(x, prior, xs, ys, prior_s, rho: float, variance: float, noise: flo
     return mu, np.maximum(var, 0.0)
 
 
-def ite(desc, prior, trial: Callable[[int], float], cfg: ITEConfig = ITEConfig()) -> dict:
+def ite(desc, prior, trial: Callable[[int], float], cfg: ITEConfig = ITEConfig(), *, stop: bool = True) -> dict:
     """Run Intelligent Trial and Error over the elites: ``desc`` [C, D] their normalised descriptors,
     ``prior`` [C] their fitness in the repertoire, ``trial(i)`` the damaged robot's fitness with elite ``i``.
+    ``stop=False``: no stopping rule (``cfg.trials`` trials, or until every elite is tried).
 
     Returns ``{"trials": [{"index", "predicted", "fitness"}...], "best_index", "best_fitness", "stop"}``.
     """
@@ -86,16 +87,16 @@ def ite(desc, prior, trial: Callable[[int], float], cfg: ITEConfig = ITEConfig()
     tried: list[int] = []
     ys: list[float] = []
     out: list[dict] = []
-    stop = f"{cfg.trials} trials"
+    reason = f"{cfg.trials} trials"
     for _ in range(cfg.trials):
         mu, var = posterior(desc, prior, desc[tried], ys, prior[tried], cfg.rho, s2, cfg.noise)
-        if ys and max(ys) >= cfg.alpha * float(np.max(mu)):
-            stop = f"best trial >= {cfg.alpha:g} x best prediction"
+        if stop and ys and max(ys) >= cfg.alpha * float(np.max(mu)):
+            reason = f"best trial >= {cfg.alpha:g} x best prediction"
             break
         ucb = mu + cfg.kappa * np.sqrt(var)
         ucb[tried] = -np.inf
         if not np.isfinite(ucb).any():
-            stop = "every elite tried"
+            reason = "every elite tried"
             break
         i = int(np.argmax(ucb))
         y = float(trial(i))
@@ -106,7 +107,7 @@ def ite(desc, prior, trial: Callable[[int], float], cfg: ITEConfig = ITEConfig()
         out.append({"index": i, "predicted": float(mu[i]), "fitness": y})
     else:
         mu, _ = posterior(desc, prior, desc[tried], ys, prior[tried], cfg.rho, s2, cfg.noise)
-        if ys and max(ys) >= cfg.alpha * float(np.max(mu)):
-            stop = f"best trial >= {cfg.alpha:g} x best prediction"
+        if stop and ys and max(ys) >= cfg.alpha * float(np.max(mu)):
+            reason = f"best trial >= {cfg.alpha:g} x best prediction"
     b = int(np.argmax(ys))
-    return {"trials": out, "best_index": out[b]["index"], "best_fitness": ys[b], "stop": stop}
+    return {"trials": out, "best_index": out[b]["index"], "best_fitness": ys[b], "stop": reason}

@@ -82,3 +82,12 @@ def test_bad_settings():
         ite.ITEConfig(alpha=1.5)
     with pytest.raises(ValueError, match="rho"):
         ite.ITEConfig(rho=0)
+
+
+def test_without_the_stopping_rule_it_runs_every_trial_and_never_repeats_one():
+    rng = np.random.default_rng(1)
+    desc, prior = rng.uniform(size=(30, 3)), rng.uniform(size=30)
+    r = ite.ite(desc, prior, lambda i: float(prior[i]), ite.ITEConfig(trials=12), stop=False)
+    tried = [t["index"] for t in r["trials"]]
+    assert len(tried) == 12 == len(set(tried)) and r["stop"] == "12 trials"
+    assert tried[0] == int(np.argmax(prior)) and r["best_index"] == tried[0]
