@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.episode import descriptors as bd
+from cpgjax.episode.batch import LANES
 from cpgjax.episode.cpg import targets
 from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.errors import ResultsError
@@ -80,7 +81,12 @@ def path_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 
 
 def _cycle_fn(model, steps: int, sub: int):
-    """Jitted ``(state, coeffs [n_ctrl, 2K+1, 1]) -> (state, (x [S, 3, nb], q [S, 4, nb]))``: one gait cycle."""
+    """Jitted ``(state, coeffs [n_ctrl, 2K+1, LANES]) -> (state, (x [S, 3, nb], q [S, 4, nb]))``: one gait cycle.
+
+    The robot runs as robot 0 of a whole SIMD vector of copies (:data:`cpgjax.episode.batch.LANES`), as the
+    repertoire's evaluation ran it: a batch narrower than that is computed with other instructions, and an
+    evolved gait is chaotic enough that the last bits decide whether it falls (measured: the speed-turn
+    repertoire's straight gait walks 2 s in a batch of 16 and turns over in a batch of 1 or 2)."""
     K, f0 = model.harmonics, model.frequency
 
     def run(state, coeffs):
@@ -120,7 +126,7 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
         raise ResultsError(f"{repertoire}: no elite walks forward with a mean tilt <= {max_tilt} rad")
     cand = idx[fwd]
     run = _cycle_fn(model, steps, sub)
-    state = initial_state(model, 1)
+    state = initial_state(model, LANES)
     track = model.track
     xs, qs, log = [np.asarray(state.x)[..., 0][None]], [np.asarray(state.q)[..., 0][None]], []
     k, finished, t_finish, fell = 0, False, float("nan"), None
@@ -134,7 +140,7 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
         want = err / period
         score = np.abs(rep.descriptors[cand, 1] - want) - 1e-6 * rep.descriptors[cand, 0]
         cell = int(cand[int(np.argmin(score))])
-        coeffs = jnp.asarray(rep.genomes[cell].reshape(model.n_ctrl, model.n_coeff)[..., None])
+        coeffs = jnp.asarray(np.repeat(rep.genomes[cell].reshape(model.n_ctrl, model.n_coeff)[..., None], LANES, -1))
         state, (x, q) = run(state, coeffs)
         x, q = np.asarray(x), np.asarray(q)
         if not (np.isfinite(x).all() and np.isfinite(q).all()):
