@@ -17,7 +17,7 @@ from typing import Any
 from cpgjax.cli import options as o
 
 ME_OPTIONS = ("method", "descriptor", "cells", "bounds", "evaluations", "batch", "init_batches", "sigma",
-              "sigma_iso", "sigma_line", "qd_offset", "seed", "chunk")
+              "sigma_iso", "sigma_line", "qd_offset", "keep_fallen", "seed", "chunk")
 DEFAULT_TIME = 4.0      # s: two cycles of the 0.5 Hz CPG (the thesis's episodes are 10 s; Cully's 5 s)
 
 
@@ -82,6 +82,8 @@ def register(subparsers: Any) -> None:
                    help=f"iso-line: std along the line between two elites (default {d.sigma_line:g})")
     p.add_argument("--qd-offset", type=o.finite, default=None,
                    help=f"fitness lower bound of the QD-score (default {d.qd_offset:g})")
+    p.add_argument("--keep-fallen", action="store_true", default=None,
+                   help="insert robots that fell too (body past 60 degrees; default: never, a fall is not a gait)")
     p.add_argument("--time", type=o.seconds, default=None, help=f"episode length in s (default {DEFAULT_TIME:g})")
     p.add_argument("--terrain", type=o.terrain, default=None, help=f"{o.TERRAIN_HELP} (default: the model's)")
     o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
