@@ -21,7 +21,7 @@ import sys
 
 from cpgjax.cli.options import Parser
 
-GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability", "validation")
+GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability", "validation", "repertoire")
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 

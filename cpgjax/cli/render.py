@@ -34,6 +34,9 @@ def register(subparsers: Any) -> None:
     r.add_argument("--ctl", help="controller (.ctl) for a .wl model; without it every servo holds angle 0")
     r.add_argument("--generation", type=int, metavar="G",
                    help="RUN.h5: the best of generation G (negative: from the end) instead of the whole run's best")
+    r.add_argument("--cell", metavar="CELL",
+                   help="a repertoire (cpgjax repertoire): the elite of this cell: best, an index, or a descriptor "
+                        "(comma-separated values: the cell it falls in)")
     r.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax, or the run's)")
     r.add_argument("--terrain", type=o.terrain, help=o.TERRAIN_HELP + " (default: the file's, or the run's)")
     r.add_argument("--out", help="output .mp4 or .gif (default: MODEL's name with .mp4, in the current folder)")
@@ -74,14 +77,24 @@ def cmd_render(args: argparse.Namespace) -> int:
         if args.ctl:
             raise ValueError("--ctl is for a .wl model; a run file brings its own controller")
         model, coeffs, T, what = load_run(args.model, args.generation, terrain=args.terrain, pipeline=args.pipeline)
+        if args.cell is not None:
+            from cpgjax.experiments.repertoire import read_repertoire
+
+            if args.generation is not None:
+                raise ValueError("--cell and --generation: give one")
+            rep = read_repertoire(args.model)
+            c = rep.cell(args.cell)
+            coeffs = rep.genomes[c].reshape(model.n_ctrl, model.n_coeff)
+            desc = ", ".join(f"{n} {v:.3g}" for n, v in zip(rep.grid.names, rep.descriptors[c], strict=True))
+            what = f"cell {c} (fitness {rep.fitness[c]:+.4f}; {desc})"
         T = args.time or T
         title = f"{os.path.basename(args.model)}: {what}"
     else:
         from cpgjax.cli.simulate import load_controller
         from cpgjax.io.wl import load_model
 
-        if args.generation is not None:
-            raise ValueError("--generation is for a run file (RUN.h5)")
+        if args.generation is not None or args.cell is not None:
+            raise ValueError("--generation and --cell are for a run file (RUN.h5)")
         model = load_model(args.model, terrain=args.terrain, pipeline=args.pipeline)
         coeffs, name = load_controller(args.ctl, model)
         T = args.time or model.time_max

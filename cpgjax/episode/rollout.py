@@ -14,6 +14,7 @@ import math
 import jax
 import jax.numpy as jnp
 
+from cpgjax.episode import descriptors as bd
 from cpgjax.episode.cpg import targets
 from cpgjax.episode.fitness import stability
 from cpgjax.episode.support import projection_stability
@@ -82,7 +83,7 @@ def probe(model, s: State, R, p, var, delta):
 
 
 def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None, forward=1, var=None,
-            fall_ends=False, stability_series=False):
+            fall_ends=False, stability_series=False, descriptors=False):
     """Run B robots with CPG coefficients [n_ctrl, 2K+1, B]; returns a dict of [B] arrays.
 
     Keys: fitness (eq. 4.6, mean of eq. 4.5), distance (forward, m), speed (distance/T),
@@ -100,6 +101,9 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     log sample: ``S`` and ``proj`` [samples, B] (vestibular and projection stability, NaN where the
     latter is undefined), ``S_mean``, ``proj_mean`` (over the defined samples; NaN if none), ``proj_min``
     and ``proj_undefined`` (the number of samples with fewer than three vertices down).
+    With ``descriptors=True`` (:mod:`cpgjax.episode.descriptors`, accumulated at every log sample) also
+    ``duty`` [legs, B] (each leg's duty factor), ``heading_speed`` and ``turn`` [B] (forward speed along the
+    heading, m/s, and turning rate, rad/s).
     """
     inner, outer = schedule(model, time, log_rate)
     T = inner * outer * model.dt
@@ -154,6 +158,12 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
                        proj_n=prev["proj_n"] + defined,
                        proj_min=jnp.minimum(prev["proj_min"], jnp.where(defined, proj_t, jnp.inf)))
             out = (out, {"S": S_t, "proj": proj_t})
+        if descriptors:
+            if model.terrain.flat:
+                touching = p[2, model.ct_pt] < 0
+            else:
+                touching = zg - p[2, model.ct_pt] > 0
+            acc["bd"] = bd.update(prev["bd"], feet, touching, bd.heading(model, R), s_new.x[:2, model.track])
         return (s_new, acc), out
 
     def sample(s, R):
@@ -167,6 +177,9 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             "down": z < 0, "up": z}
     if stability_series:
         acc0.update(S=z, proj=z, proj_n=jnp.zeros((B,), jnp.int32), proj_min=z + jnp.inf)
+    if descriptors:
+        feet = bd.legs(model)[1]
+        acc0["bd"] = bd.init(model, s0.x, quat_to_mat(s0.q), feet.shape[0])
     (s_end, acc), traj = jax.lax.scan(outer_body, (s0, acc0), None, length=outer)
     if stability_series:
         traj, series = traj
@@ -190,6 +203,9 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         res.update(S=series["S"], proj=series["proj"], S_mean=acc["S"] / outer,
                    proj_mean=jnp.where(n > 0, acc["proj"] / jnp.maximum(n, 1), jnp.nan),
                    proj_min=jnp.where(n > 0, acc["proj_min"], jnp.nan), proj_undefined=outer - n)
+    if descriptors:
+        d = bd.finish(acc["bd"], outer, T)
+        res.update(duty=d["duty"], heading_speed=d["speed"], turn=d["turn"])
     if record:   # the first sample is the initial state, at t = 0
         res["traj"] = jax.tree.map(lambda a0, a: jnp.concatenate([a0[None], a]), sample(s0, quat_to_mat(s0.q)), traj)
     return res

@@ -46,6 +46,9 @@ class Algorithm:
     update: Callable[[Any, Any, jax.Array, jax.Array, jax.Array, jax.Array, jax.Array], Any]
     rate: Callable[[Any, jax.Array], jax.Array]
     resumable_changes: tuple[str, ...] = ("chunk",)
+    # the problem's metrics an update also needs, stacked [N, D] and passed after ``gen`` (a quality-diversity
+    # archive's behaviour descriptors, :mod:`cpgjax.optim.mapelites`); empty: update gets none
+    descriptor: tuple[str, ...] = ()
 
 
 def ga_algorithm(problem: Problem, cfg: ga.GAConfig) -> Algorithm:
@@ -193,7 +196,11 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
             fit = jnp.asarray(part["fitness"], jnp.float32).reshape(r, n)
             div = jnp.asarray(part["diverged"], bool).reshape(r, n) | ~jnp.isfinite(fit)
             keys = jax.vmap(jax.random.fold_in)(ku, gen)
-            upd = jax.vmap(a.update)(p, s, x, fit, div, keys, gen)
+            if a.descriptor:
+                d = jnp.stack([jnp.asarray(part[k], jnp.float32).reshape(r, n) for k in a.descriptor], -1)
+                upd = jax.vmap(a.update)(p, s, x, fit, div, keys, gen, d)
+            else:
+                upd = jax.vmap(a.update)(p, s, x, fit, div, keys, gen)
             new = jax.tree.map(partial(_keep, gen < tgt), upd, s)
             metrics = {k: jnp.asarray(v, jnp.float32).reshape(r, n) for k, v in part.items()
                        if k not in ("fitness", "diverged")}

@@ -77,3 +77,17 @@ def test_validation_notebook_tiny(tmp_path):
     assert "0.74 Hz" in claims and "Table A.1" in claims and claims.count("\n|") >= 6
     text = executed.read_text()
     assert "scale tiny" in text and "Traceback" not in text and '"image/png"' in text
+
+
+def test_repertoire_notebook_tiny(tmp_path):
+    """notebooks/repertoire.ipynb (MAP-Elites, elites, follow, adapt) at tiny scale."""
+    pytest.importorskip("nbclient")
+    pytest.importorskip("ipykernel")
+    executed = tmp_path / "executed.ipynb"
+    args = ["notebook", os.path.join(ROOT, "notebooks", "repertoire.ipynb"), "--scale", "tiny",
+            "--sweep-dir", str(tmp_path / "out"), "--fig-dir", str(tmp_path / "figures"), "--out", str(executed)]
+    assert cli.main(args) == 0
+    assert sorted(os.listdir(tmp_path / "figures")) == ["best-elite.gif", "follow.png", "repertoire.png"]
+    text = executed.read_text()
+    assert "scale tiny" in text and "Traceback" not in text and "cells filled after 32 evaluations" in text
+    assert "trial 1: cell" in text

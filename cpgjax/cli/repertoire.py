@@ -1,0 +1,282 @@
+"""The ``repertoire``, ``adapt`` and ``follow`` subcommands of ``cpgjax`` (docs/repertoire.md).
+
+``repertoire``: MAP-Elites into a run file (:mod:`cpgjax.experiments.repertoire`), ``repertoire-plot``: its
+figure (:mod:`cpgjax.plots.repertoire`); ``adapt``: Intelligent
+Trial and Error on a damaged robot (:mod:`cpgjax.experiments.adapt`); ``follow``: walk a path by choosing,
+every gait cycle, a gait of the repertoire (:mod:`cpgjax.experiments.follow`).  Every default comes from
+:class:`~cpgjax.optim.mapelites.MEConfig` and the other configuration dataclasses.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from typing import Any
+
+from cpgjax.cli import options as o
+
+ME_OPTIONS = ("method", "descriptor", "cells", "bounds", "evaluations", "batch", "init_batches", "sigma",
+              "sigma_iso", "sigma_line", "qd_offset", "keep_fallen", "seed", "chunk")
+DEFAULT_TIME = 4.0      # s: two cycles of the 0.5 Hz CPG (the thesis's episodes are 10 s; Cully's 5 s)
+
+
+def cells(text: str) -> tuple[int, ...]:
+    """``5`` (every dimension) or ``32x32`` / ``5,5,5,5`` (one per dimension), each in [1, 10000]."""
+    parts = text.replace("x", ",").split(",")
+    try:
+        out = tuple(int(p) for p in parts)
+    except ValueError:
+        out = ()
+    if not out or any(not 1 <= c <= 10_000 for c in out):
+        raise argparse.ArgumentTypeError(f"expected bins per dimension: N, or NxN... (each 1..10000), got {text!r}")
+    return out
+
+
+def bounds(text: str) -> tuple[tuple[float, float], ...]:
+    """``LO:HI`` (every dimension) or ``LO:HI,LO:HI`` (one per dimension), finite with LO < HI."""
+    out = []
+    for part in text.split(","):
+        lo, sep, hi = part.partition(":")
+        try:
+            b = (float(lo), float(hi)) if sep else None
+        except ValueError:
+            b = None
+        if b is None or not all(map(lambda v: abs(v) < float("inf"), b)) or not b[0] < b[1]:
+            raise argparse.ArgumentTypeError(f"expected LO:HI[,LO:HI...] with LO < HI, got {part!r} in {text!r}")
+        out.append(b)
+    return tuple(out)
+
+
+def register(subparsers: Any) -> None:
+    from cpgjax.episode.descriptors import DESCRIPTORS
+    from cpgjax.optim.mapelites import METHODS, MEConfig
+
+    d = MEConfig()
+    p = subparsers.add_parser(
+        "repertoire", help="a repertoire of gaits by MAP-Elites (quality-diversity; docs/repertoire.md)",
+        description="MAP-Elites over a grid of behaviour descriptors (each leg's duty factor, or forward speed x "
+                    "turning rate), computed online in the episode; every evaluation is written to an HDF5 run "
+                    "file, from which the archive is rebuilt exactly (--resume continues bit for bit).")
+    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl)")
+    p.add_argument("--descriptor", choices=DESCRIPTORS, default=None,
+                   help=f"duty: each leg's duty factor (Cully et al. 2015); speed-turn: forward speed (m/s) x "
+                        f"turning rate (rad/s) (default {d.descriptor})")
+    p.add_argument("--cells", type=cells, default=None, metavar="N|NxN...",
+                   help=f"bins per descriptor dimension (default {d.cells[0]} each)")
+    p.add_argument("--bounds", type=bounds, default=None, metavar="LO:HI[,LO:HI...]",
+                   help="descriptor range per dimension (default: duty 0:1; speed -0.1:0.3 m/s; turn -0.5:0.5 "
+                        "rad/s); values outside go to the edge cells")
+    p.add_argument("--method", choices=METHODS, default=None,
+                   help=f"map-elites: Gaussian mutation (Mouret & Clune 2015); iso-line: iso+line variation "
+                        f"(Vassiliades & Mouret 2018) (default {d.method})")
+    p.add_argument("--evaluations", type=o.count, default=None, help=f"evaluation budget (default {d.evaluations})")
+    p.add_argument("--batch", type=o.count, default=None, help=f"children per generation (default {d.batch})")
+    p.add_argument("--init-batches", type=o.count0, default=None,
+                   help=f"generations of random genomes first (default {d.init_batches})")
+    p.add_argument("--sigma", type=o.nonneg, default=None,
+                   help=f"map-elites: mutation std in box widths (default {d.sigma:g})")
+    p.add_argument("--sigma-iso", type=o.nonneg, default=None,
+                   help=f"iso-line: isotropic std in box widths (default {d.sigma_iso:g})")
+    p.add_argument("--sigma-line", type=o.nonneg, default=None,
+                   help=f"iso-line: std along the line between two elites (default {d.sigma_line:g})")
+    p.add_argument("--qd-offset", type=o.finite, default=None,
+                   help=f"fitness lower bound of the QD-score (default {d.qd_offset:g})")
+    p.add_argument("--keep-fallen", action="store_true", default=None,
+                   help="insert robots that fell too (body past 60 degrees; default: never, a fall is not a gait)")
+    p.add_argument("--time", type=o.seconds, default=None, help=f"episode length in s (default {DEFAULT_TIME:g})")
+    p.add_argument("--terrain", type=o.terrain, default=None, help=f"{o.TERRAIN_HELP} (default: the model's)")
+    o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
+    p.add_argument("--damage", default=None, metavar="SPEC",
+                   help="build the repertoire on a damaged robot (leg=AR, locked=KneeAR, weak=HipPL:0.3; "
+                        "docs/repertoire.md)")
+    p.add_argument("--seed", type=o.seed, default=None, help=f"random seed (default {d.seed})")
+    p.add_argument("--chunk", type=o.count, default=None, help=f"generations per jitted chunk (default {d.chunk})")
+    p.add_argument("--out", default=None, help="results file (default runs/MODEL-repertoire-sSEED.h5)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--resume", action="store_true", help="continue the repertoire in --out")
+    g.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    p.add_argument("--allow-other-machine", action="store_true",
+                   help="--resume a run computed on another CPU or with other versions")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_repertoire)
+
+    from cpgjax.optim.ite import ITEConfig
+
+    a = ITEConfig()
+
+    p = subparsers.add_parser(
+        "adapt", help="Intelligent Trial and Error: a damaged robot finds a gait of the repertoire by trial",
+        description="Bayesian optimisation over a repertoire's elites (a Gaussian process over the descriptor, "
+                    "the archive's fitness as its prior mean; Cully et al. 2015) on a damaged robot, which it only "
+                    "observes through each trial's fitness.")
+    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl): the repertoire's")
+    p.add_argument("--repertoire", required=True, nargs="+", metavar="REP.h5",
+                   help="a cpgjax repertoire file; several (one per seed): the study of docs/repertoire.md")
+    p.add_argument("--damage", required=True, action="append", metavar="SPEC",
+                   help="leg=AR | locked=KneeAR | weak=HipPL:0.3, several joined by ',' (none: intact); "
+                        "repeat the option for a study over damages")
+    p.add_argument("--study", action="store_true",
+                   help="measure instead: every elite scored on the damaged robot (the best reachable R), IT&E's "
+                        "trials to reach --level x R (stopping rule off), and with --ga-generations the GA from "
+                        "scratch's evaluations to the same level")
+    p.add_argument("--level", type=o.fraction, default=0.7, help="study: the share of R to reach (default 0.7)")
+    p.add_argument("--ga-generations", type=o.count0, default=0,
+                   help="study: generations of the GA from scratch on the damaged robot (population 20; 0: none)")
+    p.add_argument("--trials", type=o.count, default=None, help=f"most trials (default {a.trials}; study: 50)")
+    p.add_argument("--alpha", type=o.fraction, default=None,
+                   help=f"stop when the best trial reaches alpha x the best prediction (default {a.alpha:g})")
+    p.add_argument("--kappa", type=o.nonneg, default=None, help=f"UCB exploration weight (default {a.kappa:g})")
+    p.add_argument("--rho", type=o.positive, default=None,
+                   help=f"Matern-5/2 length scale, in descriptor units (default {a.rho:g})")
+    p.add_argument("--noise", type=o.positive, default=None,
+                   help=f"observation noise variance (default {a.noise:g})")
+    p.add_argument("--out", default=None, metavar="TRIALS.json", help="write the trials as JSON")
+    p.set_defaults(func=cmd_adapt)
+
+    p = subparsers.add_parser(
+        "follow", help="walk a path by choosing, every gait cycle, a gait of the repertoire",
+        description="Every gait cycle the robot takes the repertoire's gait whose turning rate best reduces the "
+                    "heading error to the next waypoint (a speed-turn repertoire), and walks the path.")
+    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl): the repertoire's")
+    p.add_argument("--repertoire", required=True, metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
+    p.add_argument("--path", required=True, metavar="SPEC",
+                   help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m)")
+    p.add_argument("--cycles", type=o.count, default=None, help="most gait cycles (default: 40)")
+    p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk")
+    p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
+    p.set_defaults(func=cmd_follow)
+
+    p = subparsers.add_parser("repertoire-plot", help="a repertoire's heatmap, coverage and QD-score per evaluation")
+    p.add_argument("repertoire", metavar="REP.h5")
+    p.add_argument("--out", default=None, metavar="FIG.png", help="figure file (default: REP with .png)")
+    p.set_defaults(func=cmd_plot)
+
+
+def _stored(path: str | None, resume: bool) -> tuple[dict, dict]:
+    if not (resume and path and os.path.exists(path)):
+        return {}, {}
+    from cpgjax.io.results import read_attrs
+
+    a = read_attrs(path)
+    meta = json.loads(a.get("meta") or "{}")
+    return json.loads(a["config"]), json.loads(meta.get("cli_problem_args", "{}") or "{}")
+
+
+def cmd_repertoire(args: argparse.Namespace) -> int:
+    from cpgjax.cli.evolve import interrupted
+    from cpgjax.experiments.evolve import deferred_sigint
+
+    with deferred_sigint():
+        from cpgjax.experiments.repertoire import run_repertoire
+        from cpgjax.optim.behaviour import behaviour_problem
+        from cpgjax.optim.mapelites import MEConfig
+
+        seed = args.seed if args.seed is not None else MEConfig().seed
+        out = args.out or os.path.join(
+            "runs", f"{os.path.splitext(os.path.basename(args.model))[0]}-repertoire-s{seed}.h5")
+        o.check_output_file(out)
+        stored, cli = _stored(out, args.resume)
+        kw = {}
+        for n in ME_OPTIONS:
+            v = getattr(args, n, None)
+            if v is None and n in stored:
+                v = stored[n]
+            if v is not None:
+                kw[n] = tuple(tuple(b) for b in v) if n == "bounds" else tuple(v) if n == "cells" else v
+        cfg = MEConfig(**kw)
+        pick = lambda n, default=None: getattr(args, n) if getattr(args, n) is not None else cli.get(n, default)  # noqa: E731
+        problem = behaviour_problem(args.model, descriptor=cfg.descriptor, time=pick("time", DEFAULT_TIME),
+                                    terrain=pick("terrain"), pipeline=pick("pipeline"), damage=pick("damage"))
+        try:
+            s = run_repertoire(problem, cfg, out, resume=args.resume, overwrite=args.overwrite,
+                               progress=not args.quiet, allow_other_machine=args.allow_other_machine)
+        except KeyboardInterrupt:
+            raise interrupted(args, out) from None
+    print(f"wrote {out}: {s['completed']} generations x {cfg.batch} evaluations; {s.get('filled', 0)} of "
+          f"{s['cells']} cells filled ({s.get('coverage', 0):.1%}), QD-score {s.get('qd_score', 0):.4g}, best fitness "
+          f"{s.get('best', float('nan')):.4f}; {s['evals_per_second']:.1f} evaluations/s "
+          f"(compile {s['compile_time']:.1f} s)")
+    return 0
+
+
+def cmd_adapt(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from cpgjax.experiments.adapt import ADAPT_DEFAULTS, adapt
+
+    cfg = dataclasses.replace(ADAPT_DEFAULTS, **{k: getattr(args, k) for k in ("trials", "alpha", "kappa", "rho",
+                                                                                 "noise")
+                                                 if getattr(args, k) is not None})
+    if args.out:
+        o.check_output_file(args.out)
+    if args.study:
+        return _study(args)
+    if len(args.repertoire) > 1 or len(args.damage) > 1:
+        raise ValueError("several --repertoire or --damage: add --study (one adaptation takes one of each)")
+    r = adapt(args.model, args.repertoire[0], args.damage[0], cfg)
+    for i, t in enumerate(r["trials"]):
+        print(f"trial {i + 1:>2}: cell {t['cell']:>6}  predicted {t['predicted']:+.4f}  observed {t['fitness']:+.4f}")
+    print(f"{r['damage']}: best {r['best_fitness']:+.4f} (cell {r['best_cell']}) after {len(r['trials'])} trials; "
+          f"the repertoire's best on the intact robot {r['prior_best']:+.4f}; stopped: {r['stop']}")
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(r, f, indent=1)
+    return 0
+
+
+def _study(args: argparse.Namespace) -> int:
+    from cpgjax.experiments.adapt import study
+
+    r = study(args.model, args.repertoire, args.damage, level=args.level, trials=args.trials or 50,
+              ga_generations=args.ga_generations, progress=True)
+    fmt = lambda v: "-" if v is None else str(v)  # noqa: E731
+    print(f"{'damage':<22} {'seed':>4} {'elites':>6} {'R':>8} {'IT&E trials':>11} {'GA evals':>8}   "
+          "IT&E's own stop: trials, best/R")
+    for row in r["rows"]:
+        print(f"{row['damage']:<22} {row['seed']:>4} {row['elites']:>6} {row['R']:>8.4f} {fmt(row['ite_trials']):>11} "
+              f"{fmt(row.get('ga_evaluations')):>8}   {row['ite_stop_trial']:>2}, "
+              f"{row['ite_stop_fitness'] / row['R']:.2f}")
+    import numpy as np
+
+    for d in dict.fromkeys(row["damage"] for row in r["rows"]):
+        it = [row["ite_trials"] for row in r["rows"] if row["damage"] == d]
+        ga = [row.get("ga_evaluations") for row in r["rows"] if row["damage"] == d]
+        med = lambda xs: "not reached" if any(x is None for x in xs) and sum(x is None for x in xs) * 2 >= len(xs) \
+            else f"{np.median([x if x is not None else np.inf for x in xs]):g}"  # noqa: E731
+        print(f"{d}: median IT&E trials {med(it)}" + (f", median GA evaluations {med(ga)}" if args.ga_generations
+                                                       else ""))
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(r, f, indent=1)
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from cpgjax.experiments.repertoire import read_repertoire
+    from cpgjax.plots.repertoire import figure
+
+    out = args.out or os.path.splitext(args.repertoire)[0] + ".png"
+    o.check_output_file(out)
+    rep = read_repertoire(args.repertoire)
+    figure(rep, out)
+    print(f"wrote {out}: {int(rep.filled.sum())} of {rep.grid.n_cells} cells after {int(rep.evaluations[-1])} "
+          f"evaluations, QD-score {rep.qd_score[-1]:.4g}")
+    return 0
+
+
+def cmd_follow(args: argparse.Namespace) -> int:
+    from cpgjax.experiments.follow import follow
+
+    for f in (args.out, args.video):
+        if f:
+            o.check_output_file(f, "--out" if f == args.out else "--video")
+    r = follow(args.model, args.repertoire, args.path, cycles=args.cycles, video=args.video)
+    state = "finished" if r["finished"] else f"did not finish ({r['fell']})" if r["fell"] else "did not finish"
+    print(f"{args.path}: {state} in {r['time']:.1f} s "
+          f"({r['cycles']} gait cycles), mean distance from the path {r['mean_error']:.3f} m, "
+          f"waypoints {r['reached']} of {r['waypoints']}")
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(r, f, indent=1)
+    return 0

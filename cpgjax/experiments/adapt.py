@@ -1,0 +1,137 @@
+"""``cpgjax adapt``: a damaged robot finds a gait of its repertoire by trial (Intelligent Trial and Error).
+
+:func:`adapt` runs :func:`cpgjax.optim.ite.ite` over a repertoire's elites on the damaged robot
+(:mod:`cpgjax.episode.damage`): each trial is one episode of one elite on the damaged robot, of the
+repertoire's length, terrain and pipeline; the search sees only the trial's fitness.
+
+:func:`study` is the measurement of docs/repertoire.md, for damages x repertoires (one per seed):
+
+- the **best reachable damaged performance** ``R``: every elite of the repertoire scored on the damaged
+  robot (one batched simulation; a robot's result does not depend on its batch, so each equals the trial
+  of that elite), the best of them;
+- **IT&E**: the number of trials until the best trial reaches ``level x R`` (default 70 %), with the
+  stopping rule off so that the count is not cut short, and where the stopping rule would have stopped
+  (``ite_stop_trial``, ``ite_stop_fitness``: what a robot running ``cpgjax adapt`` gets);
+- **the GA from scratch** (the thesis's GA, :mod:`cpgjax.optim.ga`, its seed the repertoire's) on the
+  damaged robot: the number of evaluations until its best so far reaches the same level.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time as _time
+
+import jax
+import numpy as np
+
+from cpgjax.errors import ResultsError
+from cpgjax.experiments.repertoire import Repertoire, read_repertoire
+from cpgjax.io.wl import load_wl
+from cpgjax.optim.behaviour import behaviour_problem
+from cpgjax.optim.ite import ITEConfig, ite
+
+ADAPT_DEFAULTS = ITEConfig()
+
+
+def damaged_problem(model: str, rep: Repertoire, damage: str | None):
+    """The repertoire's problem (descriptor, episode, terrain, pipeline) on the robot with ``damage``."""
+    import json
+
+    text = load_wl(model).text
+    if rep.meta.get("model_text") and text != rep.meta["model_text"]:
+        raise ResultsError(f"{model}: not the model the repertoire {rep.path} was made with (its text differs)")
+    cli = json.loads(rep.meta.get("cli_problem_args") or "{}")
+    return behaviour_problem(model, descriptor=str(rep.meta["descriptor"]), time=float(rep.meta["time"]),
+                             terrain=cli.get("terrain"), pipeline=str(rep.meta.get("pipeline") or "springs"),
+                             damage=damage)
+
+
+def normalised(rep: Repertoire, idx) -> np.ndarray:
+    """The descriptors of the elites ``idx`` scaled to the grid's bounds ([0, 1] per dimension)."""
+    lo, hi = rep.grid.lower.astype(np.float64), rep.grid.upper.astype(np.float64)
+    return (rep.descriptors[idx].astype(np.float64) - lo) / (hi - lo)
+
+
+def adapt(model: str, repertoire: str, damage: str, cfg: ITEConfig = ADAPT_DEFAULTS) -> dict:
+    """IT&E on the robot with ``damage``: one episode per trial (see the module docstring)."""
+    rep = read_repertoire(repertoire)
+    problem = damaged_problem(model, rep, damage)
+    f = jax.jit(problem.evaluate)
+    idx = rep.cells
+    genomes = rep.genomes[idx]
+
+    def trial(i: int) -> float:
+        r = f(genomes[i][None])
+        return float(r["fitness"][0]) if not bool(r["diverged"][0]) else float("nan")
+
+    r = ite(normalised(rep, idx), rep.fitness[idx], trial, cfg)
+    trials = [{"cell": int(idx[t["index"]]), "predicted": t["predicted"], "fitness": t["fitness"]}
+              for t in r["trials"]]
+    return {"damage": problem.meta["damage"], "repertoire": rep.path, "trials": trials,
+            "best_cell": int(idx[r["best_index"]]), "best_fitness": r["best_fitness"],
+            "prior_best": float(rep.fitness[idx].max()), "stop": r["stop"], "config": dataclasses.asdict(cfg)}
+
+
+def damaged_scores(problem, genomes: np.ndarray, batch: int = 512) -> np.ndarray:
+    """Every genome's fitness on ``problem`` (NaN where diverged), in batches."""
+    f = jax.jit(problem.evaluate)
+    out = []
+    for s in range(0, len(genomes), batch):
+        r = jax.device_get(f(genomes[s:s + batch]))
+        out.append(np.where(r["diverged"], np.nan, r["fitness"]))
+    return np.concatenate(out)
+
+
+def first_reaching(best_so_far: np.ndarray, level: float) -> int | None:
+    """1-based index of the first entry >= level (None if none)."""
+    hit = np.flatnonzero(np.asarray(best_so_far) >= level)
+    return int(hit[0]) + 1 if hit.size else None
+
+
+def study(model: str, repertoires: list[str], damages: list[str], *, level: float = 0.7,
+          trials: int = 50, ga_generations: int = 0, ga_population: int = 20, progress: bool = False) -> dict:
+    """The table of docs/repertoire.md: per damage and repertoire, ``R``, IT&E's trials and the GA's
+    evaluations to reach ``level x R`` (see the module docstring)."""
+    from tqdm.auto import tqdm
+
+    from cpgjax.experiments.evolve import run_ga
+    from cpgjax.optim.ga import GAConfig
+
+    reps = [read_repertoire(p) for p in repertoires]
+    rows = []
+    bar = tqdm(total=len(damages) * len(reps), desc="adapt", unit="case", disable=not progress)
+    problems: dict = {}
+    for damage in damages:
+        for rep in reps:
+            t0 = _time.perf_counter()
+            key = (damage, rep.meta.get("descriptor"), rep.meta.get("time"), rep.meta.get("terrain"),
+                   rep.meta.get("pipeline"))
+            if key not in problems:
+                problems[key] = damaged_problem(model, rep, damage)
+            problem = problems[key]
+            idx = rep.cells
+            scores = damaged_scores(problem, rep.genomes[idx])
+            R = float(np.nanmax(scores))
+            cfg = ITEConfig(trials=min(trials, len(idx)))
+            r = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]), cfg, stop=False)
+            ys = np.maximum.accumulate([t["fitness"] for t in r["trials"]])
+            stopped = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]),
+                          ITEConfig(trials=min(trials, len(idx))))
+            row = {"damage": problem.meta["damage"], "repertoire": rep.path, "seed": int(rep.config.get("seed", 0)),
+                   "elites": int(len(idx)), "R": R, "intact_best": float(rep.fitness[idx].max()),
+                   "ite_trials": first_reaching(ys, level * R), "ite_best": float(ys[-1]),
+                   "ite_trials_run": len(ys), "ite_stop_trial": len(stopped["trials"]),
+                   "ite_stop_fitness": stopped["best_fitness"]}
+            if ga_generations:
+                cfg_ga = GAConfig(population=ga_population, generations=ga_generations,
+                                  seed=int(rep.config.get("seed", 0)))
+                s = run_ga(problem, cfg_ga)
+                fit = np.where(s["history"]["diverged"], -np.inf, s["history"]["fitness"]).reshape(-1)
+                row.update(ga_evaluations=first_reaching(np.maximum.accumulate(fit), level * R),
+                           ga_best=float(fit.max()), ga_budget=int(fit.size))
+            row["seconds"] = _time.perf_counter() - t0
+            rows.append(row)
+            bar.update(1)
+    bar.close()
+    return {"model": os.fspath(model), "level": level, "rows": rows}

@@ -1,0 +1,80 @@
+"""The repertoire, adapt, follow and repertoire-plot commands, at tiny scale (0.2 s episodes, 32 evaluations)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from cpgjax.cli import main
+
+MODEL = "models/quadruped.wl"
+TINY = ["--time", "0.2", "--evaluations", "32", "--batch", "16", "--chunk", "2", "--quiet"]
+
+
+@pytest.fixture(scope="module")
+def duty(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rep") / "duty.h5"
+    assert main(["repertoire", MODEL, "--cells", "3", *TINY, "--out", str(out)]) == 0
+    return out
+
+
+def test_repertoire_writes_a_file_that_adapt_plot_and_resume_read(duty, tmp_path, capsys):
+    capsys.readouterr()
+    rc = main(["adapt", MODEL, "--repertoire", str(duty), "--damage", "leg=AR", "--trials", "3",
+               "--out", str(tmp_path / "a.json")])
+    out = capsys.readouterr().out
+    assert rc == 0 and "trial  1: cell" in out and "leg=AR: best" in out
+    r = json.loads((tmp_path / "a.json").read_text())
+    assert 1 <= len(r["trials"]) <= 3 and r["damage"] == "leg=AR"
+    assert r["best_fitness"] == max(t["fitness"] for t in r["trials"])
+    assert main(["repertoire-plot", str(duty), "--out", str(tmp_path / "f.png")]) == 0
+    assert (tmp_path / "f.png").stat().st_size > 1000
+    # --resume with a larger budget continues it; with another grid it is refused
+    assert main(["repertoire", MODEL, "--evaluations", "48", "--out", str(duty), "--resume", "--quiet"]) == 0
+    assert "3 generations x 16 evaluations" in capsys.readouterr().out
+    assert main(["repertoire", MODEL, "--cells", "4", "--out", str(duty), "--resume", "--quiet"]) == 2
+    assert "cannot resume: --cells" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_study_compares_ite_with_the_ga_from_scratch(duty, tmp_path, capsys):
+    capsys.readouterr()
+    rc = main(["adapt", MODEL, "--repertoire", str(duty), "--damage", "leg=AR", "--damage", "weak=KneePL:0.2",
+               "--study", "--ga-generations", "2", "--out", str(tmp_path / "s.json")])
+    out = capsys.readouterr().out
+    assert rc == 0 and "median IT&E trials" in out and "median GA evaluations" in out
+    rows = json.loads((tmp_path / "s.json").read_text())["rows"]
+    assert [r["damage"] for r in rows] == ["leg=AR", "weak=KneePL:0.2"]
+    for r in rows:
+        assert r["ite_best"] <= r["R"] and r["ga_budget"] == 40 and r["ite_trials"] is not None
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["repertoire", MODEL, "--cells", "0"], "argument --cells: expected bins per dimension"),
+    (["repertoire", MODEL, "--bounds", "1:0"], "argument --bounds: expected LO:HI"),
+    (["repertoire", MODEL, "--cells", "3x3", "--evaluations", "16", "--batch", "16"], "--cells gives 2 numbers"),
+    (["repertoire", MODEL, "--damage", "leg=ZZ", *TINY], "no leg 'ZZ'; the model's legs are AR, AL, PR, PL"),
+    (["adapt", MODEL, "--repertoire", "missing.h5", "--damage", "leg=AR"], "missing.h5: no such file"),
+])
+def test_bad_input_is_one_line(argv, message, tmp_path, capsys):
+    rc = main([*argv, "--out", str(tmp_path / "x.h5")] if argv[0] == "repertoire" else argv)
+    err = capsys.readouterr().err
+    assert rc == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+def test_follow_needs_a_speed_turn_repertoire(duty, capsys):
+    assert main(["follow", MODEL, "--repertoire", str(duty), "--path", "square:1"]) == 2
+    assert "needs a speed-turn repertoire" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_follow_walks_with_a_speed_turn_repertoire(tmp_path, capsys):
+    rep = tmp_path / "st.h5"
+    assert main(["repertoire", MODEL, "--descriptor", "speed-turn", "--cells", "4", *TINY, "--out", str(rep)]) == 0
+    rc = main(["follow", MODEL, "--repertoire", str(rep), "--path", "line:5", "--cycles", "1",
+               "--out", str(tmp_path / "w.json")])
+    out = capsys.readouterr().out
+    assert rc == 0 and "line:5: did not finish" in out
+    w = json.loads((tmp_path / "w.json").read_text())
+    assert w["cycles"] == 1 and len(w["trajectory"]) == 41 and w["gaits"][0]["want_turn"] == pytest.approx(0, abs=1e-3)

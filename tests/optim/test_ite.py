@@ -1,0 +1,93 @@
+"""Intelligent Trial and Error (cpgjax.optim.ite): the GP's posterior against its closed form, the search."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cpgjax.optim import ite
+
+
+def test_matern52_at_known_distances():
+    a = np.zeros((1, 2))
+    b = np.asarray([[0.0, 0.0], [0.3, 0.4], [3.0, 4.0]])          # distances 0, 0.5, 5
+    k = ite.matern52(a, b, rho=0.5, variance=2.0)[0]
+    s5 = math.sqrt(5)
+    assert k[0] == pytest.approx(2.0, rel=1e-15)
+    assert k[1] == pytest.approx(2.0 * (1 + s5 + 5 / 3) * math.exp(-s5), rel=1e-14)
+    assert k[2] == pytest.approx(2.0 * (1 + 10 * s5 + 500 / 3) * math.exp(-10 * s5), rel=1e-12)
+
+
+def test_posterior_with_one_observation_is_the_closed_form():
+    """One trial y1 at x1: mu(x) = P(x) + k(x,x1) (y1 - P1) / (s2 (1 + n)), var = s2 - k(x,x1)^2 / (s2 (1 + n))."""
+    x = np.asarray([[0.0], [0.2], [1.0]])
+    prior = np.asarray([0.1, 0.3, -0.2])
+    xs, ys, ps = np.asarray([[0.2]]), np.asarray([0.05]), np.asarray([0.3])
+    s2, n, rho = 0.04, 1e-3, 0.4
+    mu, var = ite.posterior(x, prior, xs, ys, ps, rho, s2, n)
+    k = ite.matern52(x, xs, rho, s2)[:, 0]
+    np.testing.assert_allclose(mu, prior + k * (ys[0] - ps[0]) / (s2 * (1 + n)), rtol=1e-13)
+    np.testing.assert_allclose(var, s2 - k * k / (s2 * (1 + n)), rtol=1e-12, atol=1e-18)
+    assert mu[1] == pytest.approx(0.3 + (0.05 - 0.3) / (1 + n), rel=1e-13)   # at the trial: almost the observation
+
+
+def test_posterior_with_two_observations_is_the_closed_form():
+    """Two trials: the 2x2 inverse written out, [[a, b], [b, a]]^-1 = [[a, -b], [-b, a]] / (a^2 - b^2)."""
+    x = np.asarray([[0.1, 0.9], [0.5, 0.5], [0.0, 0.0]])
+    prior = np.asarray([0.2, 0.0, 0.1])
+    xs = np.asarray([[0.3, 0.3], [0.6, 0.6]])
+    ys, ps = np.asarray([0.4, -0.1]), np.asarray([0.1, 0.2])
+    s2, n, rho = 1.5, 1e-2, 0.7
+    mu, var = ite.posterior(x, prior, xs, ys, ps, rho, s2, n)
+    a = s2 * (1 + n)
+    b = ite.matern52(xs[:1], xs[1:], rho, s2)[0, 0]
+    inv = np.asarray([[a, -b], [-b, a]]) / (a * a - b * b)
+    k = ite.matern52(x, xs, rho, s2)
+    np.testing.assert_allclose(mu, prior + k @ inv @ (ys - ps), rtol=1e-12)
+    np.testing.assert_allclose(var, s2 - np.sum((k @ inv) * k, 1), rtol=1e-10)
+
+
+def test_no_observation_is_the_prior():
+    mu, var = ite.posterior(np.zeros((3, 1)), [1.0, 2.0, 3.0], np.zeros((0, 1)), [], [], 0.4, 0.5, 1e-3)
+    np.testing.assert_array_equal(mu, [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(var, [0.5, 0.5, 0.5])
+
+
+def test_an_undamaged_robot_takes_its_best_gait_at_the_first_trial_and_stops():
+    rng = np.random.default_rng(0)
+    desc, prior = rng.uniform(size=(200, 2)), rng.uniform(size=200)
+    r = ite.ite(desc, prior, lambda i: float(prior[i]))
+    assert len(r["trials"]) == 1 and r["best_index"] == int(np.argmax(prior)) and "prediction" in r["stop"]
+
+
+def test_a_damage_that_ruins_one_region_is_avoided_in_a_few_trials():
+    """The damage halves the fitness of every gait with descriptor x0 > 0.5 (where the prior's best lie):
+    IT&E tries the prior's best first, then leaves that region and stops (alpha 0.9 of its own prediction) on a
+    gait of the undamaged half within 85 % of the best remaining one, in <= 10 trials (here: 4)."""
+    g = np.linspace(0, 1, 21)
+    desc = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+    prior = 0.1 + 0.2 * desc[:, 0] - 0.05 * (desc[:, 1] - 0.5) ** 2
+    damaged = np.where(desc[:, 0] > 0.5, 0.3 * prior, prior)
+    r = ite.ite(desc, prior, lambda i: float(damaged[i]), ite.ITEConfig(trials=10))
+    assert r["trials"][0]["index"] == int(np.argmax(prior))
+    assert r["best_fitness"] >= 0.85 * damaged.max() and desc[r["best_index"], 0] <= 0.5
+    assert len(r["trials"]) <= 10 and "prediction" in r["stop"]
+    assert damaged[r["best_index"]] == r["best_fitness"]
+
+
+def test_bad_settings():
+    with pytest.raises(ValueError, match="alpha"):
+        ite.ITEConfig(alpha=1.5)
+    with pytest.raises(ValueError, match="rho"):
+        ite.ITEConfig(rho=0)
+
+
+def test_without_the_stopping_rule_it_runs_every_trial_and_never_repeats_one():
+    rng = np.random.default_rng(1)
+    desc, prior = rng.uniform(size=(30, 3)), rng.uniform(size=30)
+    r = ite.ite(desc, prior, lambda i: float(prior[i]), ite.ITEConfig(trials=12), stop=False)
+    tried = [t["index"] for t in r["trials"]]
+    assert len(tried) == 12 == len(set(tried)) and r["stop"] == "12 trials"
+    assert tried[0] == int(np.argmax(prior)) and r["best_index"] == tried[0]
