@@ -1,5 +1,5 @@
 """The notebooks execute end to end at tiny scale (cpgjax.experiments.notebook: nbclient, a kernel of this
-interpreter)."""
+interpreter).  The stability notebook is marked slow (`make test-all`)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,10 @@ def test_a_failing_notebook_names_the_error(tmp_path, capsys):
     assert "no sweep here" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # 33 s of CPU, most of it compiling its courses; `make test-all` runs it
 def test_stability_notebook_tiny(tmp_path):
+    """notebooks/stability.ipynb (Figs. 6.13-6.21, the population study, claims) at tiny scale (its parts run in
+    the fast suite: tests/experiments/test_stability.py; the notebook command: the two other notebooks)."""
     pytest.importorskip("nbclient")
     pytest.importorskip("ipykernel")
     executed = tmp_path / "executed.ipynb"
