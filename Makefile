@@ -28,8 +28,11 @@ lint: $(STAMP)
 	$(BIN)/ruff check cpgjax tests
 
 # the fast suite; it ends with its ten slowest tests, its time (wall and CPU) and the load it ran under.
-# pytest's "no tests ran" (exit 5) fails like any other failure.
-PYTEST := $(BIN)/python -m pytest -q --durations=10
+# pytest's "no tests ran" (exit 5) fails like any other failure.  TEST_WORKERS pytest-xdist workers (one per core
+# of the 2-core machine the suite is sized for; 0: one process), each running whole files, the heaviest first
+# (tests/conftest.py): XLA compiles a program on one core, so one process left the second core mostly idle.
+TEST_WORKERS ?= 2
+PYTEST := $(BIN)/python -m pytest -q --durations=10 -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 test: $(STAMP) lint
 	$(PYTEST) -m "not slow"
 

@@ -21,28 +21,82 @@ import sys
 import tempfile
 import time
 
-_CACHE_DIR = None
+_CACHE_DIR = None        # the folder, when this process made it (and removes it at the end)
 if os.environ.get("CPGJAX_TEST_JAX_CACHE", "1") != "0":
-    _CACHE_DIR = tempfile.mkdtemp(prefix="cpgjax-test-jax-cache-")
-    os.environ["JAX_COMPILATION_CACHE_DIR"] = _CACHE_DIR
+    if os.environ.get("PYTEST_XDIST_WORKER") and os.path.isdir(os.environ.get("JAX_COMPILATION_CACHE_DIR", "")):
+        pass                # a pytest-xdist worker: the controller's folder, inherited (the controller removes it)
+    else:
+        _CACHE_DIR = tempfile.mkdtemp(prefix="cpgjax-test-jax-cache-")
+        os.environ["JAX_COMPILATION_CACHE_DIR"] = _CACHE_DIR
     os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0.1"   # skip the trivial programs: not worth a write
     os.environ["JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES"] = "-1"     # no size floor
+    # a size limit turns on JAX's file lock around each read and write of the cache: the test processes
+    # (pytest-xdist's workers, subprocesses) share the folder, and one never reads an entry half written
+    os.environ["JAX_COMPILATION_CACHE_MAX_SIZE"] = str(64 * 2**30)
 
 import cpgjax  # noqa: E402,F401  (first: sets the host device count before a test module imports jax; cpgjax/_xla.py)
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 _T0 = time.monotonic()
+_WORKERS_CPU: list[float] = []      # pytest-xdist: the CPU seconds each worker reported when it finished
+
+
+def _cpu(*who) -> float:
+    return sum(r.ru_utime + r.ru_stime for r in map(resource.getrusage, who))
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if hasattr(session.config, "workeroutput"):      # an xdist worker: its CPU seconds go to the controller
+        session.config.workeroutput["cpu"] = _cpu(resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
+
+
+# The files that take longest (CPU seconds of the fast suite, measured 2026-11-25, heaviest first).  With
+# `make test`'s pytest-xdist workers (``--dist loadfile``: a file's tests run in one worker, sharing its
+# module-scoped fixtures) they start first, so that no long file is left alone at the end while the other
+# worker idles.  Only the order changes: a stale list costs time, never a result.
+HEAVY_FIRST = (
+    "experiments/test_sweep.py", "optim/test_factory.py", "sim/test_articulated.py", "experiments/test_notebooks.py",
+    "experiments/test_robust.py", "optim/test_es.py", "sim/test_contact.py", "episode/test_rollout.py",
+    "crosscheck/test_transfer.py", "sim/test_variation.py", "experiments/test_validate.py", "optim/test_ga.py",
+    "test_models.py", "experiments/test_stability.py", "crosscheck/test_mjcf.py", "cli/test_replay.py",
+    "experiments/test_evolve.py", "render/test_render.py", "cli/test_cli_bad_input.py", "analysis/test_report.py",
+    "experiments/test_studies.py", "experiments/test_cluster.py",
+)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    here = os.path.dirname(os.path.abspath(__file__))
+    rank = {os.path.join(here, f): i for i, f in enumerate(HEAVY_FIRST)}
+    items.sort(key=lambda item: rank.get(str(item.path), len(rank)))     # stable: the rest keep their order
+
+
+class _WorkersCPU:
+    """On the xdist controller: collects each worker's CPU seconds (a hook of xdist's, so registered only with it)."""
+
+    @staticmethod
+    def pytest_testnodedown(node, error):
+        _WORKERS_CPU.append(getattr(node, "workeroutput", {}).get("cpu", 0.0))
+
+
+def pytest_configure(config):
+    if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workeroutput"):
+        config.pluginmanager.register(_WorkersCPU(), "cpgjax-workers-cpu")
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
-    cache = "on" if _CACHE_DIR else "off (CPGJAX_TEST_JAX_CACHE=0)"
+    cache = "on" if os.environ.get("CPGJAX_TEST_JAX_CACHE", "1") != "0" else "off (CPGJAX_TEST_JAX_CACHE=0)"
     load = " ".join(f"{x:.1f}" for x in os.getloadavg())
-    # CPU seconds of this process and the subprocesses it waited for: less inflated than wall time by a busy machine
-    cpu = sum(r.ru_utime + r.ru_stime for r in map(resource.getrusage, (resource.RUSAGE_SELF,
-                                                                        resource.RUSAGE_CHILDREN)))
-    terminalreporter.write_line(f"suite: {time.monotonic() - _T0:.0f} s wall, {cpu:.0f} s CPU, collection included; "
-                                f"the JAX compilation cache {cache}; load average at the end {load} (1, 5, 15 min)")
+    # CPU seconds of this process and the subprocesses it waited for (with xdist: of the controller and what its
+    # workers reported): less inflated than wall time by a busy machine
+    if _WORKERS_CPU:
+        cpu = _cpu(resource.RUSAGE_SELF) + sum(_WORKERS_CPU)
+        procs = f", {len(_WORKERS_CPU)} workers"
+    else:
+        cpu, procs = _cpu(resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN), ""
+    terminalreporter.write_line(f"suite: {time.monotonic() - _T0:.0f} s wall, {cpu:.0f} s CPU{procs}, collection "
+                                f"included; the JAX compilation cache {cache}; load average at the end {load} "
+                                "(1, 5, 15 min)")
 
 
 def pytest_unconfigure(config):

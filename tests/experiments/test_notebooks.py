@@ -1,5 +1,5 @@
 """The notebooks execute end to end at tiny scale (cpgjax.experiments.notebook: nbclient, a kernel of this
-interpreter)."""
+interpreter).  The stability notebook is marked slow (`make test-all`)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 NOTEBOOK = os.path.join(ROOT, "notebooks", "thesis_figures.ipynb")
 
 
-def test_thesis_figures_notebook_tiny(tmp_path):
+def _thesis_figures_tiny(tmp_path) -> list[str]:
+    """Executes notebooks/thesis_figures.ipynb at tiny scale into ``tmp_path``; returns its command's arguments."""
     pytest.importorskip("nbclient")
     pytest.importorskip("ipykernel")
     executed = tmp_path / "executed.ipynb"
@@ -28,9 +29,20 @@ def test_thesis_figures_notebook_tiny(tmp_path):
     text = executed.read_text()
     assert "scale tiny" in text and "Traceback" not in text
     assert '"image/gif"' in text                     # the video is shown inline
-    # a second execution finds the sweep complete and only redraws
-    assert cli.main([*args, "--no-save"]) == 0
     assert os.environ.get("CPGJAX_SCALE") is None          # the settings do not leak into this process
+    return args
+
+
+def test_thesis_figures_notebook_tiny(tmp_path):
+    _thesis_figures_tiny(tmp_path)
+
+
+@pytest.mark.slow  # a second kernel (8 s of CPU); `make test-all` runs it
+def test_thesis_figures_notebook_run_again_finds_the_sweep_complete_and_only_redraws(tmp_path):
+    args = _thesis_figures_tiny(tmp_path)
+    sweep_files = {p: os.path.getmtime(p) for p in (tmp_path / "sweep").rglob("*.h5")}
+    assert cli.main([*args, "--no-save"]) == 0
+    assert {p: os.path.getmtime(p) for p in (tmp_path / "sweep").rglob("*.h5")} == sweep_files   # not one run rewritten
 
 
 def test_a_failing_notebook_names_the_error(tmp_path, capsys):
@@ -44,7 +56,10 @@ def test_a_failing_notebook_names_the_error(tmp_path, capsys):
     assert "no sweep here" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # 33 s of CPU, most of it compiling its courses; `make test-all` runs it
 def test_stability_notebook_tiny(tmp_path):
+    """notebooks/stability.ipynb (Figs. 6.13-6.21, the population study, claims) at tiny scale (its parts run in
+    the fast suite: tests/experiments/test_stability.py; the notebook command: the two other notebooks)."""
     pytest.importorskip("nbclient")
     pytest.importorskip("ipykernel")
     executed = tmp_path / "executed.ipynb"

@@ -114,6 +114,7 @@ for s in specs:
 """
 
 
+@pytest.mark.slow  # a subprocess that imports jax and compiles its one-device programs; `make test-all` runs it
 def test_baselines_score_their_genomes_on_one_host_device_too(tmp_path):
     """As above with ONE host device (``CPGJAX_DEVICES=1``: no `shard_map`, the simulation inline in the sweep's
     `lax.cond`): each stored fitness is still exactly the simulator's for the stored genome (it differed in its

@@ -51,7 +51,8 @@ def test_robust_fitness_is_fresh_per_key_reproducible_and_batch_independent(robu
     assert len(set(r0.tolist())) == 4                     # the same genome, 4 keys: 4 different episodes
     np.testing.assert_array_equal(r0, np.asarray(f(G, k0)["fitness"]))
     assert not np.any(np.asarray(f(G, k1)["fitness"]) == r0)       # the next generation: fresh draws
-    np.testing.assert_array_equal(r0[:2], np.asarray(f(G[:2], k0[:2])["fitness"]))
+    # alone in a batch of one (the program the test below runs too): the same score
+    np.testing.assert_array_equal(r0[1:2], np.asarray(f(G[1:2], k0[1:2])["fitness"]))
 
 
 def test_robust_fitness_is_the_mean_of_its_replicas(robust, trot):
