@@ -94,6 +94,7 @@ def test_validation_notebook_tiny(tmp_path):
     assert "scale tiny" in text and "Traceback" not in text and '"image/png"' in text
 
 
+@pytest.mark.slow  # 31 s of CPU; the commands it runs are in the fast suite (cli/test_repertoire.py)
 def test_repertoire_notebook_tiny(tmp_path):
     """notebooks/repertoire.ipynb (MAP-Elites, elites, follow, adapt) at tiny scale."""
     pytest.importorskip("nbclient")
