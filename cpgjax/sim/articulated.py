@@ -57,9 +57,12 @@ def keep(tree, token):
     bodies' velocity components, and a concatenation of computed parts evaluated every part for each output
     element.  `jax.lax.optimization_barrier` does not stop it (XLA's CPU compiler drops the barriers before
     fusion); a conditional does (its operands must be in memory), so the intermediates are passed through a
-    ``cond`` whose predicate is always true but opaque to the compiler.  The exact step ran 3.4x faster
-    (`cpgjax bench --tricks --pipeline exact`, row "no materialized intermediates").  The values are unchanged:
-    only where they are computed.
+    ``cond`` whose predicate is always true but opaque to the compiler.  Measured on one core (CPU time, the
+    quadruped): 3.2x as many robot-steps per second at 256 robots, 1.45x at 16 (docs/exact-joints.md);
+    `cpgjax bench --tricks --pipeline exact` compares it with ``MATERIALIZE = False`` in one run.  The values
+    are the same; only where they are computed changes (and with it, at some batch sizes, the rounding of a
+    few robots: docs/exact-joints.md, *What is left*).  The bodies' world inertias are left out: materialized,
+    the root's was rounded differently in batches of 16 and 32 robots.
     """
     if not MATERIALIZE or token is None:
         return tree
@@ -374,7 +377,7 @@ def mass_matrix(model, kin, masses):
         f = free.astype(np.float32)[:, None]
         root = root * f + jnp.eye(6, dtype=root.dtype)[:, :, None, None] * (1.0 - f)
     M["root"] = root
-    return keep(M, kin.pred), Iw
+    return keep(M, kin.pred), Iw    # Iw not materialized: see keep()
 
 
 def _mv(I, a):
