@@ -77,8 +77,8 @@ def keep_token(x):
 
 
 def sum0(x):
-    """``x.sum(0)`` as a chain of adds in a fixed order (XLA's CPU reduce over a short leading axis ran 50x
-    slower than the adds)."""
+    """``x.sum(0)`` as a chain of adds in a fixed order (XLA's CPU reduce over a 6-long leading axis was the
+    slowest kernel of the step in a profile, about 200 us of 1,000)."""
     out = x[0]
     for i in range(1, x.shape[0]):
         out = out + x[i]
@@ -99,7 +99,7 @@ def take(x, idx):
     if n and np.array_equal(idx, np.arange(i0, i0 + n)):
         return x[..., i0:i0 + n, :]
     # runs of consecutive or repeated items, each a slice or a broadcast, concatenated (a gather made XLA
-    # transpose the items in front of the components, and a fusion reading it ran 10x slower)
+    # put the items in front of the components, with a transpose in every fusion reading it)
     runs, start = [], 0
     for i in range(1, n + 1):
         if i == n or not (idx[i] == idx[i - 1] + 1 and idx[start] != idx[start + 1 if start + 1 < n else start]
