@@ -185,6 +185,14 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
                              label="library atan2" if default else "polynomial atan2"))
         finally:
             rotation.POLY_ATAN2 = default
+        if model.pipeline == "exact":
+            from cpgjax.sim import articulated
+
+            articulated.MATERIALIZE = False
+            try:
+                trows.append(row(model, b, time_s, chunk=chunk, label="no materialized intermediates"))
+            finally:
+                articulated.MATERIALIZE = True
         for c in (32, 64, 128, 512):
             trows.append(row(model, b, time_s, label=f"chunk {c}", chunk=c))
         print()

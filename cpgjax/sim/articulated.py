@@ -33,6 +33,7 @@ result does not depend on the batch it is in.
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -43,6 +44,45 @@ from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
 
 # ---------------------------------------------------------------------------------------------------------
 # static helpers on the item axis (the one before the batch axis)
+
+
+MATERIALIZE = True  # read at trace time; `cpgjax bench --tricks --pipeline exact` flips it to measure what it buys
+
+
+def keep(tree, token):
+    """``tree``, computed once into memory (a compiler trick; ``token``: :func:`keep_token` of the step).
+
+    Why: XLA's CPU fusion (jaxlib 0.10) puts an intermediate into every fusion that reads it and computes it
+    there again, per element read: the root's 6x6 solve, for instance, was recomputed for each of the nine
+    bodies' velocity components, and a concatenation of computed parts evaluated every part for each output
+    element.  `jax.lax.optimization_barrier` does not stop it (XLA's CPU compiler drops the barriers before
+    fusion); a conditional does (its operands must be in memory), so the intermediates are passed through a
+    ``cond`` whose predicate is always true but opaque to the compiler.  Measured on one core (CPU time, the
+    quadruped): 3.2x as many robot-steps per second at 256 robots, 1.45x at 16 (docs/exact-joints.md);
+    `cpgjax bench --tricks --pipeline exact` compares it with ``MATERIALIZE = False`` in one run.  The values
+    are the same; only where they are computed changes (and with it, at some batch sizes, the rounding of a
+    few robots: docs/exact-joints.md, *What is left*).  The bodies' world inertias are left out: materialized,
+    the root's was rounded differently in batches of 16 and 32 robots.
+    """
+    if not MATERIALIZE or token is None:
+        return tree
+    return jax.lax.cond(token, lambda t: t, lambda t: jax.tree.map(lambda a: a + 1.0, t), tree)
+
+
+def keep_token(x):
+    """A predicate that is always true but that XLA cannot fold (it depends on the bits of a state value: even
+    a step counter ``n >= 0`` is folded by the loop analysis), for :func:`keep`."""
+    bits = jax.lax.bitcast_convert_type(x.reshape(-1)[0], jnp.int32)
+    return (bits | 1) != 0
+
+
+def sum0(x):
+    """``x.sum(0)`` as a chain of adds in a fixed order (XLA's CPU reduce over a 6-long leading axis was the
+    slowest kernel of the step in a profile, about 200 us of 1,000)."""
+    out = x[0]
+    for i in range(1, x.shape[0]):
+        out = out + x[i]
+    return out
 
 
 def take(x, idx):
@@ -58,7 +98,15 @@ def take(x, idx):
         return one if n == 1 else jnp.broadcast_to(one, x.shape[:-2] + (n, x.shape[-1]))
     if n and np.array_equal(idx, np.arange(i0, i0 + n)):
         return x[..., i0:i0 + n, :]
-    return jnp.take(x, idx, axis=-2)
+    # runs of consecutive or repeated items, each a slice or a broadcast, concatenated (a gather made XLA
+    # put the items in front of the components, with a transpose in every fusion reading it)
+    runs, start = [], 0
+    for i in range(1, n + 1):
+        if i == n or not (idx[i] == idx[i - 1] + 1 and idx[start] != idx[start + 1 if start + 1 < n else start]
+                          or idx[i] == idx[i - 1] and (i - start == 1 or idx[start] == idx[start + 1])):
+            runs.append(take(x, idx[start:i]))
+            start = i
+    return jnp.concatenate(runs, axis=-2)
 
 
 def gather_sum(x, slots):
@@ -130,6 +178,7 @@ class Kin:
     def __init__(self, model, x, q, v, w):
         lv = model.levels
         self.lv = lv
+        self.pred = keep_token(x)
         self.R_all = quat_to_mat(q)                                  # [3, 3, nb, B]
         self.O = x[:, lv.bodies[0]]                                  # [3, n0, B] the roots' CMs
         root_item = np.array([lv.item_of[model.tree.root[b]] for b in range(model.nb)])
@@ -147,6 +196,8 @@ class Kin:
             Rp = take(self.R[lvl - 1], lv.parent[lvl])
             self.a.append(column(Rp, lv.axis_index[lvl]))
             self.p.append(take(self.d[lvl - 1], lv.parent[lvl]) + rot_const(Rp, lv.r_parent[lvl]))
+        (self.R_all, self.d_all, self.O, self.R, self.d, self.W, self.V, self.a, self.p) = keep(
+            (self.R_all, self.d_all, self.O, self.R, self.d, self.W, self.V, self.a, self.p), self.pred)
 
 
 def _masses(model, var, lv):
@@ -172,7 +223,7 @@ class Factor:
     [6, n_l, B] to the root's six.  Root DOFs (per root, a chain of six): ``Dr`` [6, n0, B], ``Lrr[k][i]`` (i < k).
     """
 
-    def __init__(self, model, M):
+    def __init__(self, model, M, pred=None):
         lv = model.levels
         D = lv.depth
         Md, Ma, Mr = dict(M["d"]), {k: dict(v) for k, v in M["a"].items()}, dict(M["r"])
@@ -195,6 +246,7 @@ class Factor:
             for i in range(6):
                 for j in range(6):
                     Mroot[(i, j)] = Mroot[(i, j)] - upd[i, j]
+        Mroot = keep(Mroot, pred)
         self.Dr, self.Lrr = [None] * 6, {}
         for k in range(5, -1, -1):              # the root's dense 6x6 block: a chain of six DOFs
             self.Dr[k] = 1.0 / Mroot[(k, k)]
@@ -205,6 +257,8 @@ class Factor:
                     Mroot[(i, j)] = Mroot[(i, j)] - self.Lrr[(k, i)] * Mroot[(k, j)]
         self.Dr = jnp.stack(self.Dr)
         self.lv = lv
+        self.pred = pred
+        self.Dinv, self.La, self.Lr, self.Dr, self.Lrr = keep((self.Dinv, self.La, self.Lr, self.Dr, self.Lrr), pred)
 
     def solve(self, b):
         """``M^-1 b`` for ``b = {0: [6, n0, B], l: [n_l, B]}`` (missing levels: zero)."""
@@ -238,9 +292,9 @@ class Factor:
             xl = y[lvl] * self.Dinv[lvl] if y[lvl] is not None else 0.0
             for a in range(1, lvl):
                 xl = xl - self.La[lvl][a] * take(x[a], lv.anc[lvl][a])
-            xl = xl - jnp.sum(self.Lr[lvl] * take(x[0], lv.anc[lvl][0]), axis=0)
+            xl = xl - sum0(self.Lr[lvl] * take(x[0], lv.anc[lvl][0]))
             x[lvl] = xl
-        return x
+        return keep(x, self.pred)
 
     def half_solve(self, lvl, items, b, br):
         """``y = L^-T J^T`` for rows ``J^T`` supported on the path of level-``lvl`` bodies ``items``: ``b[a]`` [n, B]
@@ -261,11 +315,11 @@ class Factor:
         for k in range(5, -1, -1):
             for i in range(k):
                 yr[i] = yr[i] - take(self.Lrr[(k, i)], anc[0]) * yr[k]
-        return y, jnp.stack(yr), anc
+        return keep((y, jnp.stack(yr)), self.pred) + (anc,)
 
     def kdot(self, ya, yb, anc):
         """``sum_i ya_i yb_i / D_i`` over a path (see :meth:`half_solve`)."""
-        out = jnp.sum(ya[1] * yb[1] * take(self.Dr, anc[0]), axis=0)
+        out = sum0(ya[1] * yb[1] * take(self.Dr, anc[0]))
         for a in ya[0]:
             out = out + ya[0][a] * yb[0][a] * take(self.Dinv[a], anc[a])
         return out
@@ -323,7 +377,7 @@ def mass_matrix(model, kin, masses):
         f = free.astype(np.float32)[:, None]
         root = root * f + jnp.eye(6, dtype=root.dtype)[:, :, None, None] * (1.0 - f)
     M["root"] = root
-    return M, Iw
+    return keep(M, kin.pred), Iw    # Iw not materialized: see keep()
 
 
 def _mv(I, a):
@@ -342,7 +396,7 @@ def project(model, kin, F, N):
     tau = {0: jnp.concatenate([F[0], N[0]]) * lv.free.astype(np.float32)[:, None]}
     for lvl in range(1, lv.depth + 1):
         tau[lvl] = dot(kin.a[lvl], N[lvl] - cross(kin.p[lvl], F[lvl]))
-    return tau
+    return keep(tau, kin.pred)
 
 
 def inertial_wrenches(model, kin, masses, Iw, rates):
@@ -371,7 +425,7 @@ def inertial_wrenches(model, kin, masses, Iw, rates):
         n = _mv(Iw[lvl], ang[lvl]) + cross(W, _mv(Iw[lvl], W))
         F.append(f)
         N.append(n + cross(kin.d[lvl], f))
-    return F, N
+    return keep((F, N), kin.pred)
 
 
 def body_velocities(model, kin, u):
@@ -385,6 +439,7 @@ def body_velocities(model, kin, u):
         W.append(Wp + u[lvl] * a)
         V.append(Vp + cross(Wp, p - dp) + cross(W[lvl], kin.d[lvl] - p))
     inv = _inverse(lv)
+    W, V = keep((W, V), kin.pred)
     return take(jnp.concatenate(W, axis=1), inv), take(jnp.concatenate(V, axis=1), inv)
 
 
@@ -495,7 +550,7 @@ def step(model, state, ctrl, var=None):
             damp = damp.at[cj].add(jnp.where(jnp.abs(tau_s) < tmax, kd, 0.0))
         for lvl in range(1, lv.depth + 1):
             M["d"][lvl] = M["d"][lvl] + dt * take(damp, lv.joint[lvl])
-    fac = Factor(model, M)
+    fac = Factor(model, M, kin.pred)
     rates = to_levels(model, state.gv)
     Fi, Ni = inertial_wrenches(model, kin, masses, Iw, rates)
     con = _Contacts(model, kin) if len(model.ct_pt) else None
@@ -513,7 +568,7 @@ def step(model, state, ctrl, var=None):
         fc, anchor, fn, qdd = _contact_step(model, state, kin, fac, con, qdd, var)
     else:
         fc, anchor, fn = state.f_c, state.anchor, state.f_n
-    return _integrate(model, state, qdd, dt)._replace(
+    return _integrate(model, state, keep(qdd, kin.pred), dt, kin.pred)._replace(
         e_int=state.e_int + dt * err, anchor=anchor, f_n=fn, f_c=fc, n=state.n + 1)
 
 
@@ -555,27 +610,27 @@ def _contact_step(model, state, kin, fac, con, qdd, var):
         order.append(sel)
     inv = np.empty(con.nc, np.int64)
     inv[np.concatenate(order)] = np.arange(con.nc)
-    k = take(jnp.concatenate(parts, axis=1), inv)        # [4, nc, B] in the vertices' order
+    k = take(jnp.concatenate(keep(parts, kin.pred), axis=1), inv)        # [4, nc, B] in the vertices' order
     # all touching vertices pushing at once along their normals: the response of each (one solve)
     nvec = jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], depth.dtype)[:, None, None], con.p.shape) \
         if fr.n is None else fr.n
     Fp, Np = con.wrenches(model, kin, nvec * touch)
     w_u, v_u = body_velocities(model, kin, fac.solve(project(model, kin, Fp, Np)))
-    common = dot(con.velocities(w_u, v_u), nvec)
+    common = keep(dot(con.velocities(w_u, v_u), nvec), kin.pred)
     knn = jnp.where(k[0] > 0, k[0], 1.0)
     scale = jnp.where(k[0] > 0, jnp.maximum(common / knn, 1.0), 1.0)
     kn, k11, k12, k22 = (scale * x for x in k)
     fp_n, fp_1, fp_2 = fr.comp(state.f_c)
     carry_n = -dt * kn * fp_n
     carry_t = (-dt * (k11 * fp_1 + k12 * fp_2), -dt * (k12 * fp_1 + k22 * fp_2))
-    fc, anchor, fn = contact_law(model, depth, fr, con.world, state.anchor, fr.comp(vstar), (kn, k11, k12, k22),
-                                 carry_n, carry_t, var)
+    fc, anchor, fn = keep(contact_law(model, depth, fr, con.world, state.anchor, fr.comp(vstar), (kn, k11, k12, k22),
+                                      carry_n, carry_t, var), kin.pred)
     Fd, Nd = con.wrenches(model, kin, fc - state.f_c)
     qdd = _add(qdd, fac.solve(project(model, kin, Fd, Nd)))
     return fc, anchor, fn, qdd
 
 
-def _integrate(model, state, qdd, dt):
+def _integrate(model, state, qdd, dt, pred=None):
     """Semi-implicit Euler on the generalized coordinates, then the bodies' poses and velocities."""
     lv = model.levels
     roots = lv.bodies[0]
@@ -610,6 +665,7 @@ def _integrate(model, state, qdd, dt):
         W.append(w)
         R.append(Rb)
     inv = _inverse(lv)
+    X, Q, V, W = keep((X, Q, V, W), pred)
     cat = [take(jnp.concatenate(a, axis=1), inv) for a in (X, Q, V, W)]
     return state._replace(x=cat[0], q=cat[1], v=cat[2], w=cat[3], gq=gq, gv=gv)
 
