@@ -12,6 +12,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl.parser import load_model
@@ -35,6 +36,7 @@ def _last(model, coeffs, time):
     return {k: np.asarray(v) for k, v in out.items() if k != "traj"}, np.asarray(out["traj"]["x"][-1])
 
 
+@pytest.mark.slow  # 10 s: a prototype in docs/experiments, not the package
 def test_the_coupled_implicit_prototype_stands_like_the_explicit_step_and_walks_at_2_ms(monkeypatch):
     proto = _prototype(monkeypatch)
     stiff = ROOT / "models" / "quadruped-stiff.wl"

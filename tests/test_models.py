@@ -23,6 +23,7 @@ def test_quadruped_matches_appendix_c():
     assert np.allclose(m.j_lo, -1.5) and np.allclose(m.j_hi, 1.5)
 
 
+@pytest.mark.slow  # 12 s, its 0.1 ms step
 def test_car_rolls_down_its_ramp():
     """1.5 s of its 3.5 s episode (0.1 ms steps: the slowest example).  Rolling without slipping down the
     0.2 rad ramp it would cover (g sin 0.2) t^2 / 2 / (1 + I_wheels / (m r^2)) = 2.2 m / (1 + ...) in 1.5 s."""
@@ -34,12 +35,14 @@ def test_car_rolls_down_its_ramp():
     assert z[-1] < z[0] - 0.4 * free_slide * np.sin(0.2)  # it went down the ramp
 
 
+@pytest.mark.slow  # fast: test_figures.py replays the worm's controller
 def test_worm_crawls():
     m, r = run("worm")
     assert m.n_ctrl == 4
     assert r["distance"] > 0.2 and not r["diverged"]
 
 
+@pytest.mark.slow  # fast: test_figures.py replays the hexapod's controller
 def test_hexapod_walks_with_a_tripod_gait():
     m, r = run("hexapod", record=True)
     assert m.n_ctrl == 12

@@ -52,6 +52,7 @@ def test_each_damage_changes_the_model_as_it_says():
     assert mask[ctrl.index("KneeAL")].sum() == 0 and mask.sum() == mask.size - m.n_coeff
 
 
+@pytest.mark.slow  # 11 s; fast: the damage syntax (this file) and the descriptors (test_descriptors.py)
 def test_a_missing_leg_never_touches_the_ground():
     """leg=AR: the behaviour problem's duty factor of AR is 0 (no contact vertex left).  With the servos holding 0
     the robot tips towards the missing leg onto AL and PR, which stay down throughout (duty 1), and lifts PL."""

@@ -76,6 +76,7 @@ def test_stability_notebook_tiny(tmp_path):
     assert "scale tiny" in text and "Traceback" not in text
 
 
+@pytest.mark.slow  # 13 s; fast: the thesis notebook (cpgjax notebook), the cut-off in analysis/test_cutoff.py
 def test_validation_notebook_tiny(tmp_path):
     """notebooks/validation.ipynb (Figs. 6.1-6.4, Table A.1, claims) at tiny scale."""
     pytest.importorskip("nbclient")

@@ -58,6 +58,7 @@ def test_deterministic_given_the_seed_and_resumable_bit_for_bit(robust, robust_r
     same_rows(read_run(again), robust_run)
 
 
+@pytest.mark.slow  # 9 s; fast: the same for the thesis evaluation, experiments/test_sweep.py
 def test_a_sweep_run_equals_the_same_run_made_alone(robust, tmp_path):
     out = tmp_path / "sweep"
     argv = ["sweep", WL, "--time", "0.3", "--evaluation", "robust", "--perturb", "replicas=2", "--population", "6",

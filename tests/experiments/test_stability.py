@@ -106,6 +106,7 @@ def _fake_run(path, genomes, gamma, seed):
                      diverged=np.zeros(n, bool), mutation_rate=0.2, wall_time=1.0))
 
 
+@pytest.mark.slow  # 10 s; also in the stability notebook (slow); fast: the stability experiments of this file
 def test_population_study_of_a_sweep_folder(tmp_path, capsys):
     trot = read_ctl(TROT, n_dof=8, harmonics=2).coeffs.reshape(-1)
     rng = np.random.default_rng(0)

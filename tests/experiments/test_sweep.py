@@ -333,6 +333,7 @@ def test_a_sweep_mixing_ga_and_evolution_strategies_equals_the_runs_made_one_by_
     assert os.path.getsize(fig) > 10_000
 
 
+@pytest.mark.slow  # 9 s; fast: a change of pipeline refused (experiments/test_pipeline_runs.py)
 def test_new_seeds_scored_otherwise_than_the_sweep_are_refused(tmp_path, capsys):
     """Seeds added to a sweep folder must be scored as its runs are: a robust sweep does not take thesis seeds."""
     out = str(tmp_path / "s")

@@ -55,6 +55,7 @@ def test_robust_fitness_is_fresh_per_key_reproducible_and_batch_independent(robu
     np.testing.assert_array_equal(r0[1:2], np.asarray(f(G[1:2], k0[1:2])["fitness"]))
 
 
+@pytest.mark.slow  # 7 s; fast: cli/test_replay.py averages jittered replicas
 def test_robust_fitness_is_the_mean_of_its_replicas(robust, trot):
     """The replicas ride in the batch: the score is the mean of R single episodes with the drawn perturbations."""
     p, f = robust
@@ -84,6 +85,7 @@ def test_perturbation_ranges_are_checked():
         make_problem(WL, perturb={"replicas": 2})
 
 
+@pytest.mark.slow  # 15 s; fast: the robust scores' freshness and batch independence (this file)
 def test_a_fall_forfeits_the_episode_with_fall_zero_and_scales_it_with_fall_survival(trot):
     """fall_zero: an episode whose body tilts past 60 degrees scores 0; fall_survival: its score times the share
     of the episode before the fall; the episodes without a fall score as with fall_ends alone."""
