@@ -132,6 +132,7 @@ def test_baselines_score_their_genomes_on_one_host_device_too(tmp_path):
     assert r.returncode == 0, r.stderr[-4000:]
 
 
+@pytest.mark.slow  # 10 s; fast: an evolve run killed -9 resumes (experiments/test_evolve.py)
 def test_resume_after_interruption_equals_uninterrupted(quad_sweep, tmp_path):
     out = str(tmp_path / "resumed")
     args = ["sweep", WL, *QUAD, "--gamma", "0.1", "--pocket", "0,2", "--crossover", "off,on", "--seeds", "2",

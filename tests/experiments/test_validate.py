@@ -89,6 +89,7 @@ def test_best_validate_writes_the_champion_as_a_ctl(runs, tmp_path, capsys):
     assert "--episodes" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # fast: cpgjax transfer end to end (crosscheck/test_transfer.py)
 def test_transfer_replays_the_validated_champion(runs, capsys):
     argv = ["transfer", str(runs / "robust.h5"), "--replays", "1", "--pick", "validated", "--candidates", "4",
             "--episodes", "2", "--json"]
