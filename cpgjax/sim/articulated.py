@@ -37,7 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.contact import contact_frame, contact_law
+from cpgjax.sim.contact import bristle, contact_frame, friction, trail_anchor
 from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import cross, dot, quat_integrate, quat_to_mat
 from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
@@ -46,6 +46,7 @@ from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
 # static helpers on the item axis (the one before the batch axis)
 
 
+CONTACT_PASSES = 1
 MATERIALIZE = True  # read at trace time; `cpgjax bench --tricks --pipeline exact` flips it to measure what it buys
 
 
@@ -550,84 +551,165 @@ def step(model, state, ctrl, var=None):
             damp = damp.at[cj].add(jnp.where(jnp.abs(tau_s) < tmax, kd, 0.0))
         for lvl in range(1, lv.depth + 1):
             M["d"][lvl] = M["d"][lvl] + dt * take(damp, lv.joint[lvl])
-    fac = Factor(model, M, kin.pred)
     rates = to_levels(model, state.gv)
     Fi, Ni = inertial_wrenches(model, kin, masses, Iw, rates)
-    con = _Contacts(model, kin) if len(model.ct_pt) else None
-    if con is not None:                         # the previous step's contact forces: the warm start
-        Fc, Nc = con.wrenches(model, kin, state.f_c)
-        Fi = [fc - fi for fc, fi in zip(Fc, Fi, strict=True)]
-        Ni = [nc - ni for nc, ni in zip(Nc, Ni, strict=True)]
-    else:
-        Fi, Ni = [-f for f in Fi], [-n for n in Ni]
-    tau = project(model, kin, Fi, Ni)
+    tau = project(model, kin, [-f for f in Fi], [-n for n in Ni])
     if model.nj:
         tau = _add(tau, to_levels(model, tau_j))
-    qdd = fac.solve(tau)
-    if con is not None:
-        fc, anchor, fn, qdd = _contact_step(model, state, kin, fac, con, qdd, var)
+    if len(model.ct_pt):
+        qdd, fc, anchor, fn = _contact_step(model, state, kin, M, tau, var)
     else:
+        qdd = Factor(model, M, kin.pred).solve(tau)
         fc, anchor, fn = state.f_c, state.anchor, state.f_n
     return _integrate(model, state, keep(qdd, kin.pred), dt, kin.pred)._replace(
         e_int=state.e_int + dt * err, anchor=anchor, f_n=fn, f_c=fc, n=state.n + 1)
 
 
-def _contact_step(model, state, kin, fac, con, qdd, var):
-    """The contact forces of the step, solved against each vertex's articulated inverse mass, and ``qdd`` with
-    their change since the previous step."""
+def _contact_step(model, state, kin, M, tau, var):
+    """The step's joint accelerations with eq. 3.7's ground and the friction bristle solved implicitly, coupled over
+    the whole robot; the contact forces, the bristles' anchors and the normal forces.
+
+    A touching vertex pushes with ``f = A d n - k z_t - (B n n^T + b' (I - n n^T)) v'`` (the normal spring and
+    bristle explicit, their dampers on the vertex's velocity at the end of the step, ``v' = J (u + dt qdd)``).
+    The dampers go into the joint-space inertia, ``(M + dt D + dt J^T K J) qdd = tau + J^T (a - K J u)``, as the
+    servos' do: one solve with the factor gives every vertex's force together, however many push at once and
+    through whatever joints (no per-vertex estimate of the others' push).  Which vertices push (``f_n > 0``)
+    and which stick (``|f_t| <= mu_s f_n``) is not known before the solve: a first pass takes them from the
+    forces at the start of the step, a second from the first pass's forces; in the second a sliding vertex's
+    friction is explicit, ``mu_d f_n`` against its bristle's pull.  At rest ``v' = 0``, so ``f_n = A d`` exactly
+    and the penetration is ``m g / (A contacts)``.
+    """
     dt = model.dt
-    lv = model.levels
+    con = _Contacts(model, kin)
     u = _dofs(model, state)
-    ustar = _axpy(u, dt, qdd)
-    w_s, v_s = body_velocities(model, kin, ustar)
-    vstar = con.velocities(w_s, v_s)
     depth, fr = contact_frame(model, con.world, var)
-    touch = (depth > 0).astype(depth.dtype)
-    # each vertex's inverse mass along n, t1, t2: half solves, level by level of the vertices' bodies
-    dirs = [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)] if fr.n is None else [fr.n, fr.t1, fr.t2]
-    parts, order = [], []                                 # per level: (nn, 11, 12, 22) of its vertices
-    for lvl in range(lv.depth + 1):
-        sel = np.nonzero(con.level == lvl)[0]
-        if not len(sel):
-            continue
-        items = con.item[sel]
-        p = take(con.p, sel)
-        ys = []
+    touch = depth > 0
+    A, B = model.ground_A, model.ground_B
+    kb, bp = bristle(model, var)
+    mu_s, mu_d = friction(model, var)
+    _, z_1, z_2 = fr.comp(con.world - state.anchor)
+    fa = jnp.where(touch, A * depth, 0.0)
+    v_start = fr.comp(con.velocities(state.w, state.v))
+
+    def law(vel):                               # the stick law's forces (n, t1, t2) at end-of-step velocities
+        v_n, v_1, v_2 = vel
+        return fa - B * v_n, -kb * z_1 - bp * v_1, -kb * z_2 - bp * v_2
+
+    def modes(f):                               # who pushes, and how much of the bristle's pull the cone allows
+        f_n, f_1, f_2 = f
+        push = touch & (f_n > 0.0)
+        ft = jnp.sqrt(f_1 * f_1 + f_2 * f_2 + 1e-20)
+        lam = jnp.where(push, jnp.where(ft <= mu_s * f_n, 1.0, mu_d * f_n / ft), 0.0)
+        return push.astype(fa.dtype), lam
+
+    def solve(m):
+        push, lam = m
+        beta = dt * bp * lam                    # dt K = beta I + gamma n n^T
+        gamma = dt * B * push - beta
+        fac = Factor(model, _add_m(M, _contact_damping(model, kin, con, beta, gamma, fr)), kin.pred)
+        f_n, f_1, f_2 = law(v_start)
+        f0 = fr.world(push * f_n, lam * f_1, lam * f_2)
+        qdd = fac.solve(_add(tau, project(model, kin, *con.wrenches(model, kin, f0))))
+        w_1, v_1 = body_velocities(model, kin, _axpy(u, dt, qdd))
+        return qdd, law(fr.comp(con.velocities(w_1, v_1)))
+
+    m = modes(law(v_start))
+    for k in range(CONTACT_PASSES):
+        qdd, f = solve(m)
+        if k < CONTACT_PASSES - 1:
+            m = modes(f)
+    push, lam = m
+    f_n, f_1, f_2 = push * f[0], lam * f[1], lam * f[2]
+    anchor = trail_anchor(model, fr, con.world, state.anchor, (z_1, z_2), touch, lam >= 1.0, f_n, var)
+    return qdd, keep(fr.world(f_n, f_1, f_2), kin.pred), anchor, f_n
+
+
+def _add_m(M, C):
+    """The joint-space inertia ``M`` plus ``C`` (the same layout; ``C`` may lack entries)."""
+    out = {"d": _add(M["d"], C["d"]), "r": _add(M["r"], C["r"]), "root": M["root"] + C["root"],
+           "a": {lvl: _add(M["a"].get(lvl, {}), C["a"].get(lvl, {})) for lvl in M["a"]}}
+    return out
+
+
+def _mul(a, b):
+    """a * b where either may be None (zero) or the float 1.0."""
+    if a is None or b is None:
+        return None
+    if isinstance(a, float):
+        return b if a == 1.0 else a * b
+    if isinstance(b, float):
+        return a if b == 1.0 else a * b
+    return a * b
+
+
+def _contact_damping(model, kin, con, beta, gamma, fr):
+    """``J^T (beta I + gamma n n^T) J`` in the joint-space inertia's layout, for every contact vertex (``beta``,
+    ``gamma`` [nc, B]; ``n`` the terrain's normal under it): the contact dampers made implicit.
+
+    Written as three rank-one terms per vertex, ``sum_e kappa_e j_e j_e^T`` over the terrain frame's directions
+    ``e`` (n: ``beta + gamma``; t1, t2: ``beta``), with ``j_e`` the vertex's Jacobian along ``e``: ``(e, p x e)``
+    on the root's six DOFs (p: the vertex from the root's CM), ``e . (a x (p - pivot))`` on each joint above it.
+    On flat ground the directions are the world's axes and the zero entries are left out.
+    """
+    lv = model.levels
+    D = lv.depth
+    p = con.p
+    if fr.n is None:                            # (e components, p x e) with None for zeros, per axis x, y, z
+        ws = [(1.0, None, None, None, p[2], -p[1]), (None, 1.0, None, -p[2], None, p[0]),
+              (None, None, 1.0, p[1], -p[0], None)]
+        kappas = [beta, beta, beta + gamma]
+        dirs = [0, 1, 2]
+    else:
+        ws, dirs = [], [fr.n, fr.t1, fr.t2]
         for e in dirs:
-            e = tuple(jnp.full_like(p[0], c) for c in e) if isinstance(e[0], float) else take(e, sel)
-            e = jnp.stack(e) if isinstance(e, tuple) else e
-            b = {}
-            for a in range(1, lvl + 1):
-                anc = lv.anc[lvl][a][items] if a < lvl else items
-                b[a] = dot(e, cross(take(kin.a[a], anc), p - take(kin.p[a], anc)))
-            br = jnp.concatenate([e, cross(p, e)]) * lv.free[lv.anc[lvl][0][items] if lvl else items].astype(
-                np.float32)[:, None]
-            y, yr, anc = fac.half_solve(lvl, items, b, br)
-            ys.append((y, yr))
-        vals = [fac.kdot(ys[0], ys[0], anc), fac.kdot(ys[1], ys[1], anc), fac.kdot(ys[1], ys[2], anc),
-                fac.kdot(ys[2], ys[2], anc)]
-        parts.append(jnp.stack(vals))
-        order.append(sel)
-    inv = np.empty(con.nc, np.int64)
-    inv[np.concatenate(order)] = np.arange(con.nc)
-    k = take(jnp.concatenate(keep(parts, kin.pred), axis=1), inv)        # [4, nc, B] in the vertices' order
-    # all touching vertices pushing at once along their normals: the response of each (one solve)
-    nvec = jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], depth.dtype)[:, None, None], con.p.shape) \
-        if fr.n is None else fr.n
-    Fp, Np = con.wrenches(model, kin, nvec * touch)
-    w_u, v_u = body_velocities(model, kin, fac.solve(project(model, kin, Fp, Np)))
-    common = keep(dot(con.velocities(w_u, v_u), nvec), kin.pred)
-    knn = jnp.where(k[0] > 0, k[0], 1.0)
-    scale = jnp.where(k[0] > 0, jnp.maximum(common / knn, 1.0), 1.0)
-    kn, k11, k12, k22 = (scale * x for x in k)
-    fp_n, fp_1, fp_2 = fr.comp(state.f_c)
-    carry_n = -dt * kn * fp_n
-    carry_t = (-dt * (k11 * fp_1 + k12 * fp_2), -dt * (k12 * fp_1 + k22 * fp_2))
-    fc, anchor, fn = keep(contact_law(model, depth, fr, con.world, state.anchor, fr.comp(vstar), (kn, k11, k12, k22),
-                                      carry_n, carry_t, var), kin.pred)
-    Fd, Nd = con.wrenches(model, kin, fc - state.f_c)
-    qdd = _add(qdd, fac.solve(project(model, kin, Fd, Nd)))
-    return fc, anchor, fn, qdd
+            pe = cross(p, e)
+            ws.append((e[0], e[1], e[2], pe[0], pe[1], pe[2]))
+        kappas = [beta + gamma, beta, beta]
+    # each vertex's Jacobian on its ancestors' joints, per level a (zero where the vertex is above level a)
+    anc_item, jac = {}, {}
+    for a in range(D + 1):
+        items = np.array([(lv.anc[L][a][i] if a < L else i) if a <= L else -1
+                          for L, i in zip(con.level, con.item, strict=True)], np.int64)
+        anc_item[a] = items
+        if a == 0:
+            continue
+        mask = items >= 0
+        ai = np.maximum(items, 0)
+        c = cross(take(kin.a[a], ai), p - take(kin.p[a], ai))
+        if not mask.all():
+            c = c * mask.astype(np.float32)[:, None]
+        jac[a] = [c[e] if isinstance(e, int) else dot(c, e) for e in dirs]
+    slots = {a: _slots_by(anc_item[a], len(lv.bodies[a])) for a in range(D + 1)}
+    out = {"d": {}, "a": {}, "r": {}}
+    root = [[None] * 6 for _ in range(6)]
+    for k_e, w in zip(kappas, ws, strict=True):
+        for i in range(6):
+            for j in range(i, 6):
+                t = _mul(_mul(k_e, w[i]), w[j])
+                if t is not None:
+                    root[i][j] = t if root[i][j] is None else root[i][j] + t
+    rows = [[gather_sum(root[min(i, j)][max(i, j)] if root[min(i, j)][max(i, j)] is not None else
+                        jnp.zeros_like(beta), slots[0]) for j in range(6)] for i in range(6)]
+    Croot = jnp.stack([jnp.stack(r) for r in rows])
+    if not lv.free.all():
+        Croot = Croot * lv.free.astype(np.float32)[:, None]
+    out["root"] = Croot
+    for a in range(1, D + 1):
+        kj = [k_e * j_e for k_e, j_e in zip(kappas, jac[a], strict=True)]
+        out["d"][a] = gather_sum(sum(kj[e] * jac[a][e] for e in range(3)), slots[a])
+        out["a"][a] = {a2: gather_sum(sum(kj[e] * jac[a2][e] for e in range(3)), slots[a]) for a2 in range(1, a)}
+        r = []
+        for i in range(6):
+            t = None
+            for e in range(3):
+                x = _mul(kj[e], ws[e][i])
+                if x is not None:
+                    t = x if t is None else t + x
+            r.append(gather_sum(t if t is not None else jnp.zeros_like(beta), slots[a]))
+        r = jnp.stack(r)
+        fm = lv.free[lv.anc[a][0]] if a else lv.free
+        out["r"][a] = r if fm.all() else r * fm.astype(np.float32)[:, None]
+    return out
 
 
 def _integrate(model, state, qdd, dt, pred=None):

@@ -186,10 +186,7 @@ def contact_law(model, depth, fr, cp, anchor, vs, k, carry_n, carry_t=None, var=
     fn = jnp.where(touch, jnp.maximum(fa - B * vn / (1.0 + dt * B * kn), 0.0), 0.0)
     # friction: f = -(K + I/(dt b'))^-1 (v* + k z / b') / dt,  b' = b + k dt (the bristle implicit too)
     z = cp - anchor
-    kb = model.friction_k                       # the bristle: static friction holds (no creep)
-    if var is not None:
-        kb = kb * var.bristle
-    bp = model.friction_b + kb * dt
+    kb, bp = bristle(model, var)
     z_n, z_1, z_2 = fr.comp(z)
     if carry_t is not None:
         vs_1, vs_2 = vs_1 + carry_t[0], vs_2 + carry_t[1]
@@ -200,17 +197,37 @@ def contact_law(model, depth, fr, cp, anchor, vs, k, carry_n, carry_t=None, var=
     g = -1.0 / (dt * (k11 * k22 - k12 * k12))
     f1 = g * (k22 * s1 - k12 * s2)
     f2 = g * (k11 * s2 - k12 * s1)
-    mu_s, mu_d = model.mu_static, model.mu_dynamic
-    if var is not None:
-        mu_s, mu_d = mu_s * var.friction, mu_d * var.friction
+    mu_s, mu_d = friction(model, var)
     stick = jnp.sqrt(f1 * f1 + f2 * f2) <= mu_s * fn
     vmag = jnp.sqrt(s1 * s1 + s2 * s2 + 1e-20)
     slide = -(mu_d * fn / vmag)
     f1, f2 = jnp.where(stick, f1, slide * s1), jnp.where(stick, f2, slide * s2)
-    # the anchor: fixed while sticking; sliding, it trails the vertex so the bristle holds at most mu_d f
-    zmag = jnp.sqrt(z_1 * z_1 + z_2 * z_2 + 1e-18)
-    lim = mu_d * fn / kb
-    trail = jnp.minimum(1.0, lim / zmag)
-    trailed = cp - fr.world(jnp.zeros_like(z_n), trail * z_1, trail * z_2)
-    new_anchor = jnp.where(touch, jnp.where(stick, anchor, trailed), cp)
+    new_anchor = trail_anchor(model, fr, cp, anchor, (z_1, z_2), touch, stick, fn, var)
     return jnp.where(touch, fr.world(fn, f1, f2), 0.0), new_anchor, fn
+
+
+def bristle(model, var=None):
+    """The friction bristle's spring ``k`` and its damper made implicit, ``b' = b + k dt`` (per robot with a
+    :class:`~cpgjax.sim.variation.Variation`'s bristle scale)."""
+    kb = model.friction_k if var is None else model.friction_k * var.bristle
+    return kb, model.friction_b + kb * model.dt
+
+
+def friction(model, var=None):
+    """The static and dynamic friction coefficients (Appendix B), per robot with a ``Variation``."""
+    if var is None:
+        return model.mu_static, model.mu_dynamic
+    return model.mu_static * var.friction, model.mu_dynamic * var.friction
+
+
+def trail_anchor(model, fr, cp, anchor, z_t, touch, stick, fn, var=None):
+    """The bristles' new anchors: fixed while a vertex sticks; sliding, the anchor trails the vertex so that the
+    bristle holds at most ``mu_d f_n``; off the ground (or not pushing), the vertex itself.  ``z_t = (z_1, z_2)``:
+    the bristle's tangential stretch ``cp - anchor`` in the terrain frame."""
+    z_1, z_2 = z_t
+    kb, _ = bristle(model, var)
+    _, mu_d = friction(model, var)
+    zmag = jnp.sqrt(z_1 * z_1 + z_2 * z_2 + 1e-18)
+    trail = jnp.minimum(1.0, mu_d * fn / kb / zmag)
+    trailed = cp - fr.world(jnp.zeros_like(z_1), trail * z_1, trail * z_2)
+    return jnp.where(touch, jnp.where(stick, anchor, trailed), cp)
