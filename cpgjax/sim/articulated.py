@@ -3,26 +3,21 @@
 The thesis's pipeline (`sim.step`) integrates every body free and holds the joints with stiff pivot springs
 (eq. 3.6); its step is bound by those springs.  This pipeline keeps the same bodies, servo (PID with
 saturation, its derivative implicit, Ch. 5), joint limits, eq. 3.7's ground with the project's implicit
-damper and friction bristle (`sim.contact.contact_law`, shared), terrain and `Variation`s, but describes the
-robot by a floating base and one angle per revolute joint (`sim.tree`), so that the joints hold exactly:
+damper and friction bristle (`sim.contact`: the terrain's frame, the law's constants, the bristle's anchor),
+terrain and `Variation`s, but describes the robot by a floating base and one angle per revolute joint
+(`sim.tree`), so that the joints hold exactly:
 
 1. the joint-space inertia ``M`` by the composite-rigid-body algorithm, in world axes about each tree root's
    CM, and its ``M = L^T D L`` factorization, which keeps the tree's sparsity (no fill-in, as MuJoCo's
    ``mj_factorM``);
 2. the bias forces (gravity, Coriolis, gyroscopic) by recursive Newton-Euler with zero joint accelerations;
-3. ``(M + dt D) qdd = tau - C + J^T f_prev``: the servos' torque (saturated) and the joint limits on the joint
-   rates at the start of the step, their dampers ``D`` implicit (coupled: the whole leg's response; a saturated
-   servo adds none, as in MuJoCo's implicit integrators), and every contact's force of the previous step (the
-   warm start); then each contact vertex's force from the contact law against the vertex's real inverse mass
-   ``K_c = J_c M^-1 J_c^T``, and the change of the forces added to ``qdd``;
+3. ``(M + dt D + dt J^T K J) qdd = tau - C + J^T (a - K J u)``: the servos' torque (saturated) and the joint
+   limits on the joint rates at the start of the step, their dampers ``D`` implicit (a saturated servo adds
+   none, as in MuJoCo's implicit integrators), and the ground's: eq. 3.7's spring and the friction bristle's
+   explicit (``a``), their dampers ``K`` on every touching vertex's velocity at the end of the step, so that one
+   solve gives all the contact forces together, coupled through the whole robot (`_contact_step`);
 4. semi-implicit Euler on the generalized velocities and positions, then forward kinematics for the bodies'
    poses and velocities (``State.x, q, v, w``: what the rest of cpgjax reads, as from the other pipeline).
-
-The vertices are solved one by one (a Jacobi step from the previous step's forces).  So that vertices pushing
-together cannot overshoot, each vertex's inverse mass is scaled by ``s_c = max(1, sum_j K_cj / K_cc)`` over the
-touching vertices ``j`` (normal components): how much faster the vertex moves when every touching vertex pushes
-at once than when it pushes alone (one solve for all); for the vertices of one free body this is the other
-pipeline's count of touching vertices.
 
 Why levels: every algorithm here walks the tree, and the bodies at one depth (the four hips, the four knees)
 are independent of each other.  Each depth is one set of ``[n_l, B]`` array operations (`sim.tree.Levels`), so
@@ -46,7 +41,6 @@ from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
 # static helpers on the item axis (the one before the batch axis)
 
 
-CONTACT_PASSES = 1
 MATERIALIZE = True  # read at trace time; `cpgjax bench --tricks --pipeline exact` flips it to measure what it buys
 
 
@@ -573,11 +567,18 @@ def _contact_step(model, state, kin, M, tau, var):
     bristle explicit, their dampers on the vertex's velocity at the end of the step, ``v' = J (u + dt qdd)``).
     The dampers go into the joint-space inertia, ``(M + dt D + dt J^T K J) qdd = tau + J^T (a - K J u)``, as the
     servos' do: one solve with the factor gives every vertex's force together, however many push at once and
-    through whatever joints (no per-vertex estimate of the others' push).  Which vertices push (``f_n > 0``)
-    and which stick (``|f_t| <= mu_s f_n``) is not known before the solve: a first pass takes them from the
-    forces at the start of the step, a second from the first pass's forces; in the second a sliding vertex's
-    friction is explicit, ``mu_d f_n`` against its bristle's pull.  At rest ``v' = 0``, so ``f_n = A d`` exactly
-    and the penetration is ``m g / (A contacts)``.
+    through whatever joints (no per-vertex estimate of the others' push).
+
+    Which vertices push and how much friction the cone allows are taken from the stick law's forces at the
+    start of the step (``v' = v``): a vertex pushes while ``A d - B v_n > 0``, and a second solve releases the
+    vertices the first would have pulled (``A d - B v'_n < 0``: a foot lifting off; the trot had such a vertex in
+    70 of 5,000 steps, up to 34 N, without it); its bristle (spring and damper)
+    acts in full while its pull is within ``mu_s f_n``, else scaled by ``lam = mu_d f_n / |f_t|``, so that the
+    friction is the cone's share of the bristle's pull and changes continuously as a foot starts to slip.
+    Why not a switch between a sticking (implicit) and a sliding (explicit) foot: a hard switch made the walk
+    chaotic (the trot's score under 1e-6 gene jitter: sd 0.0010-0.0013, against 0.0001 with ``lam``), and
+    taking ``lam`` again from the first solve's forces made it less steady (sd 0.0008; docs/exact-joints.md).
+    At rest ``v' = 0``, so ``f_n = A d`` exactly and the penetration is ``m g / (A contacts)``.
     """
     dt = model.dt
     con = _Contacts(model, kin)
@@ -602,8 +603,7 @@ def _contact_step(model, state, kin, M, tau, var):
         lam = jnp.where(push, jnp.where(ft <= mu_s * f_n, 1.0, mu_d * f_n / ft), 0.0)
         return push.astype(fa.dtype), lam
 
-    def solve(m):
-        push, lam = m
+    def solve(push, lam):
         beta = dt * bp * lam                    # dt K = beta I + gamma n n^T
         gamma = dt * B * push - beta
         fac = Factor(model, _add_m(M, _contact_damping(model, kin, con, beta, gamma, fr)), kin.pred)
@@ -613,12 +613,11 @@ def _contact_step(model, state, kin, M, tau, var):
         w_1, v_1 = body_velocities(model, kin, _axpy(u, dt, qdd))
         return qdd, law(fr.comp(con.velocities(w_1, v_1)))
 
-    m = modes(law(v_start))
-    for k in range(CONTACT_PASSES):
-        qdd, f = solve(m)
-        if k < CONTACT_PASSES - 1:
-            m = modes(f)
-    push, lam = m
+    push, lam = modes(law(v_start))
+    qdd, f = solve(push, lam)
+    held = (f[0] > 0.0).astype(lam.dtype)       # the ground never pulls: release the vertices it would pull
+    qdd, f = solve(push * held, lam * held)
+    push, lam = push * held, lam * held
     f_n, f_1, f_2 = push * f[0], lam * f[1], lam * f[2]
     anchor = trail_anchor(model, fr, con.world, state.anchor, (z_1, z_2), touch, lam >= 1.0, f_n, var)
     return qdd, keep(fr.world(f_n, f_1, f_2), kin.pred), anchor, f_n
