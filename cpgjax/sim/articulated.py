@@ -41,6 +41,7 @@ from cpgjax.sim.contact import contact_frame, contact_law
 from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import cross, dot, quat_integrate, quat_to_mat
 from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
+from cpgjax.sim.tree import _slots
 
 # ---------------------------------------------------------------------------------------------------------
 # static helpers on the item axis (the one before the batch axis)
@@ -101,6 +102,9 @@ def take(x, idx):
         return one if n == 1 else jnp.broadcast_to(one, x.shape[:-2] + (n, x.shape[-1]))
     if n and np.array_equal(idx, np.arange(i0, i0 + n)):
         return x[..., i0:i0 + n, :]
+    step = int(idx[1] - idx[0]) if n > 1 else 0
+    if step > 1 and np.array_equal(idx, i0 + step * np.arange(n)):   # every step-th item: a strided slice
+        return jax.lax.slice_in_dim(x, i0, i0 + step * (n - 1) + 1, stride=step, axis=x.ndim - 2)
     # runs of consecutive or repeated items, each a slice or a broadcast, concatenated (a gather made XLA
     # put the items in front of the components, with a transpose in every fusion reading it)
     runs, start = [], 0
@@ -495,15 +499,15 @@ class _Contacts:
         root_item = np.array([lv.item_of[model.tree.root[b]] for b in self.cb])
         self.world = self.p + take(kin.O, root_item)
         self.by_body = _slots_by(self.cb, model.nb)                              # [k, nb]
+        # each level's bodies' vertices: the wrenches sum them level by level (no concatenation per slot)
+        self.by_level = [_slots([list(np.nonzero(self.cb == b)[0]) for b in bs]) for bs in lv.bodies]
         self.level = lv.level_of[self.cb]
         self.item = lv.item_of[self.cb]
 
     def wrenches(self, model, kin, f):
         """Body wrenches (per level) of vertex forces f [3, nc, B]: force, and torque about the root's CM."""
-        lv = model.levels
-        Fb = gather_sum(f, self.by_body)
-        Nb = gather_sum(cross(self.p, f), self.by_body)
-        return [take(Fb, bs) for bs in lv.bodies], [take(Nb, bs) for bs in lv.bodies]
+        n = cross(self.p, f)
+        return [gather_sum(f, s) for s in self.by_level], [gather_sum(n, s) for s in self.by_level]
 
     def velocities(self, w, v):
         """Vertex velocities [3, nc, B] from body velocities [3, nb, B]."""
@@ -511,8 +515,6 @@ class _Contacts:
 
 
 def _slots_by(owner, n):
-    from cpgjax.sim.tree import _slots
-
     return _slots([list(np.nonzero(owner == b)[0]) for b in range(n)])
 
 
