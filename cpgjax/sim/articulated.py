@@ -651,26 +651,29 @@ def _integrate(model, state, qdd, dt, pred=None):
         gq = state.gq + dt * gv
     else:
         gv, gq = state.gv, state.gq
-    X, Q, V, W, R = [x0], [q0], [v0], [w0], [quat_to_mat(q0)]
     phi = to_levels(model, gq) if model.nj else {}
     rate = to_levels(model, gv) if model.nj else {}
+    # each level's poses and velocities read its parent's: materialized level by level (and the joints' half
+    # angles' cosines and sines once), else every level computes all those above it again, per element read
+    cs = {lvl: (jnp.cos(0.5 * phi[lvl]), jnp.sin(0.5 * phi[lvl])) for lvl in range(1, lv.depth + 1)}
+    x0, q0, v0, w0, cs = keep((x0, q0, v0, w0, cs), pred)
+    X, Q, V, W, R = [x0], [q0], [v0], [w0], [quat_to_mat(q0)]
     for lvl in range(1, lv.depth + 1):
         par = lv.parent[lvl]
         qp, Rp, xp, vp, wp = (take(a, par) for a in (Q[lvl - 1], R[lvl - 1], X[lvl - 1], V[lvl - 1], W[lvl - 1]))
-        half = 0.5 * phi[lvl]
-        q = _quat_axis(qp, lv.axis_index[lvl], jnp.cos(half), jnp.sin(half))
+        q = _quat_axis(qp, lv.axis_index[lvl], *cs[lvl])
         Rb = quat_to_mat(q)
         p = xp + rot_const(Rp, lv.r_parent[lvl])
         x = p - rot_const(Rb, lv.r_child[lvl])
         w = wp + rate[lvl] * column(Rp, lv.axis_index[lvl])
         v = vp + cross(wp, p - xp) + cross(w, x - p)
+        x, q, v, w, Rb = keep((x, q, v, w, Rb), pred)
         X.append(x)
         Q.append(q)
         V.append(v)
         W.append(w)
         R.append(Rb)
     inv = _inverse(lv)
-    X, Q, V, W = keep((X, Q, V, W), pred)
     cat = [take(jnp.concatenate(a, axis=1), inv) for a in (X, Q, V, W)]
     return state._replace(x=cat[0], q=cat[1], v=cat[2], w=cat[3], gq=gq, gv=gv)
 
