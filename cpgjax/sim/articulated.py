@@ -234,8 +234,7 @@ class Factor:
         lv = model.levels
         D = lv.depth
         Md, Ma, Mr = dict(M["d"]), {k: dict(v) for k, v in M["a"].items()}, dict(M["r"])
-        root = M["root"]
-        Mroot = {(i, j): root[i, j] for i in range(6) for j in range(6)}
+        S = M["root"]                           # [6, 6, n0, B]: the root's block, less its joints' rows
         self.Dinv, self.La, self.Lr = {}, {}, {}
         for lvl in range(D, 0, -1):
             dinv = 1.0 / Md[lvl]
@@ -249,23 +248,23 @@ class Factor:
                 for a2 in range(1, a):
                     Ma[a][a2] = Ma[a][a2] - gather_sum(La * Ma[lvl][a2], slots)
                 Mr[a] = Mr[a] - gather_sum(La[None] * Mr[lvl], slots)
-            upd = gather_sum(self.Lr[lvl][:, None] * Mr[lvl][None], lv.below[lvl][0])   # [6, 6, n0, B]
-            for i in range(6):
-                for j in range(6):
-                    Mroot[(i, j)] = Mroot[(i, j)] - upd[i, j]
-        Mroot = keep(Mroot, pred)
-        self.Dr, self.Lrr = [None] * 6, {}
-        for k in range(5, -1, -1):              # the root's dense 6x6 block: a chain of six DOFs
-            self.Dr[k] = 1.0 / Mroot[(k, k)]
-            for i in range(k):
-                self.Lrr[(k, i)] = Mroot[(k, i)] * self.Dr[k]
-            for i in range(k):
-                for j in range(i + 1):
-                    Mroot[(i, j)] = Mroot[(i, j)] - self.Lrr[(k, i)] * Mroot[(k, j)]
-        self.Dr = jnp.stack(self.Dr)
+            S = S - gather_sum(self.Lr[lvl][:, None] * Mr[lvl][None], lv.below[lvl][0])
+        # the root's dense 6x6 block, a chain of six DOFs: each step one operation on the whole remaining
+        # block (whose upper triangle is computed and never read), materialized, since the next step reads
+        # each entry several times
+        S = keep(S, pred)
+        Dr, self.Lrr = [None] * 6, {}
+        for k in range(5, -1, -1):
+            Dr[k] = 1.0 / S[k, k]
+            if k:
+                Lk = S[k, :k] * Dr[k]          # [k, n0, B]: row k of L
+                S, Lk = keep((S[:k, :k] - Lk[:, None] * S[k, None, :k], Lk), pred)
+                for i in range(k):
+                    self.Lrr[(k, i)] = Lk[i]
+        self.Dr = jnp.stack(Dr)
         self.lv = lv
         self.pred = pred
-        self.Dinv, self.La, self.Lr, self.Dr, self.Lrr = keep((self.Dinv, self.La, self.Lr, self.Dr, self.Lrr), pred)
+        self.Dinv, self.La, self.Lr, self.Dr = keep((self.Dinv, self.La, self.Lr, self.Dr), pred)
 
     def solve(self, b):
         """``M^-1 b`` for ``b = {0: [6, n0, B], l: [n_l, B]}`` (missing levels: zero)."""
