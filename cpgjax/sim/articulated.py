@@ -58,26 +58,28 @@ def keep(tree, token):
     bodies' velocity components, and a concatenation of computed parts evaluated every part for each output
     element.  `jax.lax.optimization_barrier` does not stop it (XLA's CPU compiler drops the barriers before
     fusion); a loop does (its operands must be in memory), so the intermediates pass through a ``while_loop``
-    that runs zero times: its condition is always false but opaque to the compiler.  (A ``cond`` with an always
-    true predicate, the first form, did the same but copied every array in its taken branch, about 130 copy
-    kernels per step of the quadruped: a zero-trip loop keeps its operands' buffers, 1.1x the robot-steps per
-    second at 16 robots.)  Measured on one core (CPU time, the quadruped): 3.2x as many robot-steps per second
-    at 256 robots, 1.45x at 16 (docs/exact-joints.md); `cpgjax bench --tricks --pipeline exact` compares it
-    with ``MATERIALIZE = False`` in one run.  The values are the same; only where they are computed changes
-    (and with it, at some batch sizes, the rounding of a few robots: docs/exact-joints.md, *What is left*).
-    The bodies' world inertias are left out: materialized, the root's was rounded differently in batches of
-    16 and 32 robots.  The loop's body must change its carry (``+ 1``): XLA would forward an unchanged one.
+    that runs zero times: its condition is always false but opaque to the compiler (:func:`keep_token`).  (A
+    ``cond`` with an always true predicate, the first form, did the same but copied every array in its taken
+    branch, about 130 copy kernels per step of the quadruped: a zero-trip loop keeps its operands' buffers,
+    1.1x the robot-steps per second at 16 robots.)  The loop's body must change its carry (``+ 1``): XLA
+    would forward an unchanged one.  Measured on one core (CPU time, the quadruped): 3.2x as many robot-steps
+    per second at 256 robots, 1.45x at 16 (docs/exact-joints.md); `cpgjax bench --tricks --pipeline exact`
+    compares it with ``MATERIALIZE = False`` in one run.  The values are the same; only where they are
+    computed changes (and with it, at some batch sizes, the rounding of a few robots: docs/exact-joints.md,
+    *What is left*).  The bodies' world inertias are left out: materialized, the root's was rounded
+    differently in batches of 16 and 32 robots.
     """
     if not MATERIALIZE or token is None:
         return tree
-    return jax.lax.while_loop(lambda t: ~token, lambda t: jax.tree.map(lambda a: a + 1.0, t), tree)
+    return jax.lax.while_loop(lambda t: token, lambda t: jax.tree.map(lambda a: a + 1.0, t), tree)
 
 
 def keep_token(x):
-    """A predicate that is always true but that XLA cannot fold (it depends on the bits of a state value: even
-    a step counter ``n >= 0`` is folded by the loop analysis), for :func:`keep`."""
+    """A predicate that is always false but that XLA cannot fold (it depends on the bits of a state value: even
+    a step counter ``n < 0`` is folded by the loop analysis), for :func:`keep`: its loops' condition reads it as
+    it is (computed once per step, not once per loop)."""
     bits = jax.lax.bitcast_convert_type(x.reshape(-1)[0], jnp.int32)
-    return (bits | 1) != 0
+    return (bits | 1) == 0
 
 
 def sum0(x):
