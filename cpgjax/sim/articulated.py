@@ -316,6 +316,8 @@ class Factor:
             for a2 in range(a + 1, lvl + 1):
                 ya = ya - take(self.La[a2][a], anc[a2]) * y[a2]
             y[a] = ya
+        if y:                                   # each of the root's six rows reads them all
+            y = keep(y, self.pred)
         yr = br if br is not None else 0.0
         for a in range(1, lvl + 1):
             yr = yr - take(self.Lr[a], anc[a]) * y[a][None]
