@@ -62,8 +62,8 @@ def keep(tree, token):
     ``cond`` with an always true predicate, the first form, did the same but copied every array in its taken
     branch, about 130 copy kernels per step of the quadruped: a zero-trip loop keeps its operands' buffers,
     1.1x the robot-steps per second at 16 robots.)  The loop's body must change its carry (``+ 1``): XLA
-    would forward an unchanged one.  Measured on one core (CPU time, the quadruped): 3.2x as many robot-steps
-    per second at 256 robots, 1.45x at 16 (docs/exact-joints.md); `cpgjax bench --tricks --pipeline exact`
+    would forward an unchanged one.  Measured on one core (CPU time, the quadruped): 4.7x as many robot-steps
+    per second at 256 robots, 2.2x at 16 (docs/exact-joints.md); `cpgjax bench --tricks --pipeline exact`
     compares it with ``MATERIALIZE = False`` in one run.  The values are the same; only where they are
     computed changes (and with it, at some batch sizes, the rounding of a few robots: docs/exact-joints.md,
     *What is left*).  The bodies' world inertias are left out: materialized, the root's was rounded
