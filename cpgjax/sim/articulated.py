@@ -36,6 +36,7 @@ from cpgjax.sim.contact import bristle, contact_frame, friction, trail_anchor
 from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import cross, dot, quat_integrate, quat_to_mat
 from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
+from cpgjax.sim.tree import _slots
 
 # ---------------------------------------------------------------------------------------------------------
 # static helpers on the item axis (the one before the batch axis)
@@ -51,24 +52,29 @@ def keep(tree, token):
     there again, per element read: the root's 6x6 solve, for instance, was recomputed for each of the nine
     bodies' velocity components, and a concatenation of computed parts evaluated every part for each output
     element.  `jax.lax.optimization_barrier` does not stop it (XLA's CPU compiler drops the barriers before
-    fusion); a conditional does (its operands must be in memory), so the intermediates are passed through a
-    ``cond`` whose predicate is always true but opaque to the compiler.  Measured on one core (CPU time, the
-    quadruped): 3.2x as many robot-steps per second at 256 robots, 1.45x at 16 (docs/exact-joints.md);
-    `cpgjax bench --tricks --pipeline exact` compares it with ``MATERIALIZE = False`` in one run.  The values
-    are the same; only where they are computed changes (and with it, at some batch sizes, the rounding of a
-    few robots: docs/exact-joints.md, *What is left*).  The bodies' world inertias are left out: materialized,
-    the root's was rounded differently in batches of 16 and 32 robots.
+    fusion); a loop does (its operands must be in memory), so the intermediates pass through a ``while_loop``
+    that runs zero times: its condition is always false but opaque to the compiler (:func:`keep_token`).  (A
+    ``cond`` with an always true predicate, the first form, did the same but copied every array in its taken
+    branch, about 130 copy kernels per step of the quadruped: a zero-trip loop keeps its operands' buffers,
+    1.1x the robot-steps per second at 16 robots.)  The loop's body must change its carry (``+ 1``): XLA
+    would forward an unchanged one.  Measured on one core (CPU time, the quadruped): 4.7x as many robot-steps
+    per second at 256 robots, 2.2x at 16 (docs/exact-joints.md); `cpgjax bench --tricks --pipeline exact`
+    compares it with ``MATERIALIZE = False`` in one run.  The values are the same; only where they are
+    computed changes (and with it, at some batch sizes, the rounding of a few robots: docs/exact-joints.md,
+    *What is left*).  The bodies' world inertias are left out: materialized, the root's was rounded
+    differently in batches of 16 and 32 robots.
     """
     if not MATERIALIZE or token is None:
         return tree
-    return jax.lax.cond(token, lambda t: t, lambda t: jax.tree.map(lambda a: a + 1.0, t), tree)
+    return jax.lax.while_loop(lambda t: token, lambda t: jax.tree.map(lambda a: a + 1.0, t), tree)
 
 
 def keep_token(x):
-    """A predicate that is always true but that XLA cannot fold (it depends on the bits of a state value: even
-    a step counter ``n >= 0`` is folded by the loop analysis), for :func:`keep`."""
+    """A predicate that is always false but that XLA cannot fold (it depends on the bits of a state value: even
+    a step counter ``n < 0`` is folded by the loop analysis), for :func:`keep`: its loops' condition reads it as
+    it is (computed once per step, not once per loop)."""
     bits = jax.lax.bitcast_convert_type(x.reshape(-1)[0], jnp.int32)
-    return (bits | 1) != 0
+    return (bits | 1) == 0
 
 
 def sum0(x):
@@ -93,6 +99,9 @@ def take(x, idx):
         return one if n == 1 else jnp.broadcast_to(one, x.shape[:-2] + (n, x.shape[-1]))
     if n and np.array_equal(idx, np.arange(i0, i0 + n)):
         return x[..., i0:i0 + n, :]
+    step = int(idx[1] - idx[0]) if n > 1 else 0
+    if step > 1 and np.array_equal(idx, i0 + step * np.arange(n)):   # every step-th item: a strided slice
+        return jax.lax.slice_in_dim(x, i0, i0 + step * (n - 1) + 1, stride=step, axis=x.ndim - 2)
     # runs of consecutive or repeated items, each a slice or a broadcast, concatenated (a gather made XLA
     # put the items in front of the components, with a transpose in every fusion reading it)
     runs, start = [], 0
@@ -222,8 +231,7 @@ class Factor:
         lv = model.levels
         D = lv.depth
         Md, Ma, Mr = dict(M["d"]), {k: dict(v) for k, v in M["a"].items()}, dict(M["r"])
-        root = M["root"]
-        Mroot = {(i, j): root[i, j] for i in range(6) for j in range(6)}
+        S = M["root"]                           # [6, 6, n0, B]: the root's block, less its joints' rows
         self.Dinv, self.La, self.Lr = {}, {}, {}
         for lvl in range(D, 0, -1):
             dinv = 1.0 / Md[lvl]
@@ -237,23 +245,23 @@ class Factor:
                 for a2 in range(1, a):
                     Ma[a][a2] = Ma[a][a2] - gather_sum(La * Ma[lvl][a2], slots)
                 Mr[a] = Mr[a] - gather_sum(La[None] * Mr[lvl], slots)
-            upd = gather_sum(self.Lr[lvl][:, None] * Mr[lvl][None], lv.below[lvl][0])   # [6, 6, n0, B]
-            for i in range(6):
-                for j in range(6):
-                    Mroot[(i, j)] = Mroot[(i, j)] - upd[i, j]
-        Mroot = keep(Mroot, pred)
-        self.Dr, self.Lrr = [None] * 6, {}
-        for k in range(5, -1, -1):              # the root's dense 6x6 block: a chain of six DOFs
-            self.Dr[k] = 1.0 / Mroot[(k, k)]
-            for i in range(k):
-                self.Lrr[(k, i)] = Mroot[(k, i)] * self.Dr[k]
-            for i in range(k):
-                for j in range(i + 1):
-                    Mroot[(i, j)] = Mroot[(i, j)] - self.Lrr[(k, i)] * Mroot[(k, j)]
-        self.Dr = jnp.stack(self.Dr)
+            S = S - gather_sum(self.Lr[lvl][:, None] * Mr[lvl][None], lv.below[lvl][0])
+        # the root's dense 6x6 block, a chain of six DOFs: each step one operation on the whole remaining
+        # block (whose upper triangle is computed and never read), materialized, since the next step reads
+        # each entry several times
+        S = keep(S, pred)
+        Dr, self.Lrr = [None] * 6, {}
+        for k in range(5, -1, -1):
+            Dr[k] = 1.0 / S[k, k]
+            if k:
+                Lk = S[k, :k] * Dr[k]          # [k, n0, B]: row k of L
+                S, Lk = keep((S[:k, :k] - Lk[:, None] * S[k, None, :k], Lk), pred)
+                for i in range(k):
+                    self.Lrr[(k, i)] = Lk[i]
+        self.Dr = jnp.stack(Dr)
         self.lv = lv
         self.pred = pred
-        self.Dinv, self.La, self.Lr, self.Dr, self.Lrr = keep((self.Dinv, self.La, self.Lr, self.Dr, self.Lrr), pred)
+        self.Dinv, self.La, self.Lr, self.Dr = keep((self.Dinv, self.La, self.Lr, self.Dr), pred)
 
     def solve(self, b):
         """``M^-1 b`` for ``b = {0: [6, n0, B], l: [n_l, B]}`` (missing levels: zero)."""
@@ -303,6 +311,8 @@ class Factor:
             for a2 in range(a + 1, lvl + 1):
                 ya = ya - take(self.La[a2][a], anc[a2]) * y[a2]
             y[a] = ya
+        if y:                                   # each of the root's six rows reads them all
+            y = keep(y, self.pred)
         yr = br if br is not None else 0.0
         for a in range(1, lvl + 1):
             yr = yr - take(self.Lr[a], anc[a]) * y[a][None]
@@ -487,15 +497,15 @@ class _Contacts:
         root_item = np.array([lv.item_of[model.tree.root[b]] for b in self.cb])
         self.world = self.p + take(kin.O, root_item)
         self.by_body = _slots_by(self.cb, model.nb)                              # [k, nb]
+        # each level's bodies' vertices: the wrenches sum them level by level (no concatenation per slot)
+        self.by_level = [_slots([list(np.nonzero(self.cb == b)[0]) for b in bs]) for bs in lv.bodies]
         self.level = lv.level_of[self.cb]
         self.item = lv.item_of[self.cb]
 
     def wrenches(self, model, kin, f):
         """Body wrenches (per level) of vertex forces f [3, nc, B]: force, and torque about the root's CM."""
-        lv = model.levels
-        Fb = gather_sum(f, self.by_body)
-        Nb = gather_sum(cross(self.p, f), self.by_body)
-        return [take(Fb, bs) for bs in lv.bodies], [take(Nb, bs) for bs in lv.bodies]
+        n = cross(self.p, f)
+        return [gather_sum(f, s) for s in self.by_level], [gather_sum(n, s) for s in self.by_level]
 
     def velocities(self, w, v):
         """Vertex velocities [3, nc, B] from body velocities [3, nb, B]."""
@@ -503,8 +513,6 @@ class _Contacts:
 
 
 def _slots_by(owner, n):
-    from cpgjax.sim.tree import _slots
-
     return _slots([list(np.nonzero(owner == b)[0]) for b in range(n)])
 
 
@@ -727,26 +735,29 @@ def _integrate(model, state, qdd, dt, pred=None):
         gq = state.gq + dt * gv
     else:
         gv, gq = state.gv, state.gq
-    X, Q, V, W, R = [x0], [q0], [v0], [w0], [quat_to_mat(q0)]
     phi = to_levels(model, gq) if model.nj else {}
     rate = to_levels(model, gv) if model.nj else {}
+    # each level's poses and velocities read its parent's: materialized level by level (and the joints' half
+    # angles' cosines and sines once), else every level computes all those above it again, per element read
+    cs = {lvl: (jnp.cos(0.5 * phi[lvl]), jnp.sin(0.5 * phi[lvl])) for lvl in range(1, lv.depth + 1)}
+    x0, q0, v0, w0, cs = keep((x0, q0, v0, w0, cs), pred)
+    X, Q, V, W, R = [x0], [q0], [v0], [w0], [quat_to_mat(q0)]
     for lvl in range(1, lv.depth + 1):
         par = lv.parent[lvl]
         qp, Rp, xp, vp, wp = (take(a, par) for a in (Q[lvl - 1], R[lvl - 1], X[lvl - 1], V[lvl - 1], W[lvl - 1]))
-        half = 0.5 * phi[lvl]
-        q = _quat_axis(qp, lv.axis_index[lvl], jnp.cos(half), jnp.sin(half))
+        q = _quat_axis(qp, lv.axis_index[lvl], *cs[lvl])
         Rb = quat_to_mat(q)
         p = xp + rot_const(Rp, lv.r_parent[lvl])
         x = p - rot_const(Rb, lv.r_child[lvl])
         w = wp + rate[lvl] * column(Rp, lv.axis_index[lvl])
         v = vp + cross(wp, p - xp) + cross(w, x - p)
+        x, q, v, w, Rb = keep((x, q, v, w, Rb), pred)
         X.append(x)
         Q.append(q)
         V.append(v)
         W.append(w)
         R.append(Rb)
     inv = _inverse(lv)
-    X, Q, V, W = keep((X, Q, V, W), pred)
     cat = [take(jnp.concatenate(a, axis=1), inv) for a in (X, Q, V, W)]
     return state._replace(x=cat[0], q=cat[1], v=cat[2], w=cat[3], gq=gq, gv=gv)
 

@@ -1,11 +1,11 @@
 """The exact-joint step alone, on one core: robot-steps per CPU second, with and without `keep`.
 
-    CPGJAX_DEVICES=1 taskset -c 0 python docs/experiments/step_rate.py [MODEL.wl] [BATCH] [STEPS]
+    CPGJAX_DEVICES=1 taskset -c 0 python docs/experiments/step_rate.py [MODEL.wl] [BATCH] [STEPS] [on]
 
 A `jax.lax.scan` over STEPS steps of BATCH robots (default the quadruped, 256, 200) holding random servo
 targets, compiled ahead of time; the best of 5 calls, timed as the process's CPU time (which, unlike wall
 time, holds while other jobs share the machine).  Prints one line with `sim.articulated.MATERIALIZE` on, one
-with it off (docs/exact-joints.md, note 6).
+with it off (docs/exact-joints.md, note 6); a fourth argument (``on``) skips the second (half the time).
 """
 
 import sys
@@ -44,7 +44,7 @@ if __name__ == "__main__":
     batch = int(sys.argv[2]) if len(sys.argv) > 2 else 256
     steps = int(sys.argv[3]) if len(sys.argv) > 3 else 200
     model = load_model(wl, pipeline="exact")
-    for on in (True, False):
+    for on in (True, False) if len(sys.argv) < 5 else (True,):
         articulated.MATERIALIZE = on
         per_step, robot_steps = rate(model, batch, steps)
         print(f"{wl}, {batch} robots, keep {'on ' if on else 'off'}: {1e6 * per_step:8.1f} us per step, "
