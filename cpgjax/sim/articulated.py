@@ -496,6 +496,7 @@ class _Contacts:
         self.p = take(kin.d_all, self.cb) + self.r                                # from the root's CM
         root_item = np.array([lv.item_of[model.tree.root[b]] for b in self.cb])
         self.world = self.p + take(kin.O, root_item)
+        self.r, self.p, self.world = keep((self.r, self.p, self.world), kin.pred)
         self.by_body = _slots_by(self.cb, model.nb)                              # [k, nb]
         # each level's bodies' vertices: the wrenches sum them level by level (no concatenation per slot)
         self.by_level = [_slots([list(np.nonzero(self.cb == b)[0]) for b in bs]) for bs in lv.bodies]
@@ -599,6 +600,7 @@ def _contact_step(model, state, kin, M, tau, var):
     _, z_1, z_2 = fr.comp(con.world - state.anchor)
     fa = jnp.where(touch, A * depth, 0.0)
     v_start = fr.comp(con.velocities(state.w, state.v))
+    fa, z_1, z_2, v_start = keep((fa, z_1, z_2, v_start), kin.pred)
 
     def law(vel):                               # the stick law's forces (n, t1, t2) at end-of-step velocities
         v_n, v_1, v_2 = vel
@@ -614,16 +616,16 @@ def _contact_step(model, state, kin, M, tau, var):
     def solve(push, lam):
         beta = dt * bp * lam                    # dt K = beta I + gamma n n^T
         gamma = dt * B * push - beta
-        fac = Factor(model, _add_m(M, _contact_damping(model, kin, con, beta, gamma, fr)), kin.pred)
+        fac = Factor(model, keep(_add_m(M, _contact_damping(model, kin, con, beta, gamma, fr)), kin.pred), kin.pred)
         f_n, f_1, f_2 = law(v_start)
         f0 = fr.world(push * f_n, lam * f_1, lam * f_2)
         qdd = fac.solve(_add(tau, project(model, kin, *con.wrenches(model, kin, f0))))
         w_1, v_1 = body_velocities(model, kin, _axpy(u, dt, qdd))
         return qdd, law(fr.comp(con.velocities(w_1, v_1)))
 
-    push, lam = modes(law(v_start))
+    push, lam = keep(modes(law(v_start)), kin.pred)
     qdd, f = solve(push, lam)
-    held = (f[0] > 0.0).astype(lam.dtype)       # the ground never pulls: release the vertices it would pull
+    held = keep((f[0] > 0.0).astype(lam.dtype), kin.pred)   # the ground never pulls: release those it would pull
     qdd, f = solve(push * held, lam * held)
     push, lam = push * held, lam * held
     f_n, f_1, f_2 = push * f[0], lam * f[1], lam * f[2]
