@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 from typing import Any
 
@@ -136,13 +137,21 @@ def register(subparsers: Any) -> None:
 
     p = subparsers.add_parser(
         "follow", help="walk a path by choosing, every gait cycle, a gait of the repertoire",
-        description="Every gait cycle the robot takes the repertoire's gait whose turning rate best reduces the "
-                    "heading error to the next waypoint (a speed-turn repertoire), and walks the path.")
+        description="Every gait cycle the robot simulates the --lookahead gaits of the repertoire (a speed-turn "
+                    "one) whose turning rate best reduces the heading error to the next waypoint, from the state "
+                    "it is in, for one cycle, and walks the one that leaves the least path to walk without its "
+                    "body tilting past --safe-tilt (docs/repertoire.md, Steering).")
     p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl): the repertoire's")
     p.add_argument("--repertoire", required=True, metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
     p.add_argument("--path", required=True, metavar="SPEC",
                    help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m)")
     p.add_argument("--cycles", type=o.count, default=None, help="most gait cycles (default: 40)")
+    p.add_argument("--lookahead", type=o.int_in(0, 4096), default=None, metavar="K",
+                   help="candidate gaits simulated ahead every cycle, in one batch (default: 64); 0: no "
+                        "look-ahead, the gait whose turning rate is nearest the wanted one")
+    p.add_argument("--safe-tilt", type=o.float_in(0.0, math.pi, lo_open=True, what="an angle in (0, pi] rad"),
+                   default=None, metavar="RAD",
+                   help="a candidate whose body tilts more during the cycle is not taken (default: 0.8 rad)")
     p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
@@ -271,7 +280,11 @@ def cmd_follow(args: argparse.Namespace) -> int:
     for f in (args.out, args.video):
         if f:
             o.check_output_file(f, "--out" if f == args.out else "--video")
-    r = follow(args.model, args.repertoire, args.path, cycles=args.cycles, video=args.video)
+    from cpgjax.experiments import follow as fw
+
+    r = follow(args.model, args.repertoire, args.path, cycles=args.cycles, video=args.video,
+               lookahead=fw.LOOKAHEAD if args.lookahead is None else args.lookahead,
+               safe_tilt=fw.SAFE_TILT if args.safe_tilt is None else args.safe_tilt)
     state = "finished" if r["finished"] else f"did not finish ({r['fell']})" if r["fell"] else "did not finish"
     print(f"{args.path}: {state} in {r['time']:.1f} s "
           f"({r['cycles']} gait cycles), mean distance from the path {r['mean_error']:.3f} m, "
