@@ -124,9 +124,14 @@ def register(subparsers: Any) -> None:
     p.add_argument("--level", type=o.fraction, default=0.7, help="study: the share of R to reach (default 0.7)")
     p.add_argument("--ga-generations", type=o.count0, default=0,
                    help="study: generations of the GA from scratch on the damaged robot (population 20; 0: none)")
-    p.add_argument("--trials", type=o.count, default=None, help=f"most trials (default {a.trials}; study: 50)")
+    p.add_argument("--trials", type=o.count, default=None,
+                   help=f"most trials (default {a.trials}; study: 50 with the stopping rule off, {a.trials} with it)")
     p.add_argument("--alpha", type=o.fraction, default=None,
-                   help=f"stop when the best trial reaches alpha x the best prediction (default {a.alpha:g})")
+                   help=f"stop when the best trial reaches alpha x min(the best prediction + STOP_Z standard "
+                        f"deviations, the repertoire's best) (default {a.alpha:g})")
+    p.add_argument("--stop-z", type=o.nonneg, default=None, metavar="STOP_Z",
+                   help=f"the stopping rule's confidence, in the GP's standard deviations (default {a.stop_z:g}; "
+                        "0: Cully et al.'s rule, alpha x the best prediction)")
     p.add_argument("--kappa", type=o.nonneg, default=None, help=f"UCB exploration weight (default {a.kappa:g})")
     p.add_argument("--rho", type=o.positive, default=None,
                    help=f"Matern-5/2 length scale, in descriptor units (default {a.rho:g})")
@@ -214,13 +219,12 @@ def cmd_adapt(args: argparse.Namespace) -> int:
 
     from cpgjax.experiments.adapt import ADAPT_DEFAULTS, adapt
 
-    cfg = dataclasses.replace(ADAPT_DEFAULTS, **{k: getattr(args, k) for k in ("trials", "alpha", "kappa", "rho",
-                                                                                 "noise")
-                                                 if getattr(args, k) is not None})
+    keys = ("alpha", "kappa", "rho", "noise", "stop_z") + (() if args.study else ("trials",))
+    cfg = dataclasses.replace(ADAPT_DEFAULTS, **{k: getattr(args, k) for k in keys if getattr(args, k) is not None})
     if args.out:
         o.check_output_file(args.out)
     if args.study:
-        return _study(args)
+        return _study(args, cfg)
     if len(args.repertoire) > 1 or len(args.damage) > 1:
         raise ValueError("several --repertoire or --damage: add --study (one adaptation takes one of each)")
     r = adapt(args.model, args.repertoire[0], args.damage[0], cfg)
@@ -234,11 +238,11 @@ def cmd_adapt(args: argparse.Namespace) -> int:
     return 0
 
 
-def _study(args: argparse.Namespace) -> int:
+def _study(args: argparse.Namespace, cfg) -> int:
     from cpgjax.experiments.adapt import study
 
     r = study(args.model, args.repertoire, args.damage, level=args.level, trials=args.trials or 50,
-              ga_generations=args.ga_generations, progress=True)
+              ga_generations=args.ga_generations, progress=True, cfg=cfg)
     fmt = lambda v: "-" if v is None else str(v)  # noqa: E731
     print(f"{'damage':<22} {'seed':>4} {'elites':>6} {'R':>8} {'IT&E trials':>11} {'GA evals':>8}   "
           "IT&E's own stop: trials, best/R")
@@ -253,8 +257,11 @@ def _study(args: argparse.Namespace) -> int:
         ga = [row.get("ga_evaluations") for row in r["rows"] if row["damage"] == d]
         med = lambda xs: "not reached" if any(x is None for x in xs) and sum(x is None for x in xs) * 2 >= len(xs) \
             else f"{np.median([x if x is not None else np.inf for x in xs]):g}"  # noqa: E731
+        own = [row for row in r["rows"] if row["damage"] == d]
         print(f"{d}: median IT&E trials {med(it)}" + (f", median GA evaluations {med(ga)}" if args.ga_generations
-                                                       else ""))
+                                                       else "")
+              + f"; IT&E's own stop: median {np.median([w['ite_stop_trial'] for w in own]):g} trials, median "
+                f"best/R {np.median([w['ite_stop_fitness'] / w['R'] for w in own]):.2f}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)
