@@ -181,13 +181,16 @@ def pick(cost, tilt, safe_tilt: float = SAFE_TILT) -> int:
 def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = None, reach: float = 0.2,
            video: str | None = None, min_speed: float | None = None, max_tilt: float | None = None,
            lookahead: int = LOOKAHEAD, safe_tilt: float = SAFE_TILT, deviation: float = DEVIATION,
-           aim: float = AIM) -> dict:
+           aim: float = AIM, replay: bool = False) -> dict:
     """Walk ``path`` choosing gaits of ``repertoire`` (see the module docstring); returns the walk and its measures.
 
     ``lookahead`` 0: the nearest-turn rule; K > 0: the K candidates whose turning rate is nearest ``w*`` are
     simulated for the coming cycle from the robot's state, and the one of least cost (:func:`judge`) among
     those whose body tilts at most ``safe_tilt`` (rad) is walked (:func:`pick`).  ``min_speed`` (the
-    candidates' least heading speed, a share of the fastest elite's): 0.2 with the look-ahead, else 0.5."""
+    candidates' least heading speed, a share of the fastest elite's): 0.2 with the look-ahead, else 0.5.
+    ``replay``: the walk is not the chosen candidate's simulation but the chosen gait run again from the same
+    state alone (a batch of one robot: other instructions, so other last bits, and a chaotic gait diverges
+    from its prediction: a look-ahead whose model is not exact; docs/repertoire.md measures what it changes)."""
     rep = read_repertoire(repertoire)
     if tuple(rep.grid.names) != ("heading_speed", "turn"):
         raise ResultsError(f"{repertoire}: follow chooses gaits by turning rate: it needs a speed-turn repertoire "
@@ -241,6 +244,16 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
                                             deviation=deviation, aim=aim)
         b = pick(cost, tilt, safe_tilt) if lookahead else 0
         cell = int(cells[b])
+        n_safe = int((tilt <= safe_tilt).sum()) if lookahead else None
+        if replay and lookahead:        # walk the chosen gait again, alone (a batch of 1: other instructions)
+            end, (x, q) = run(_lane(state, 0, 1), jnp.asarray(coeffs[..., b:b + 1]))
+            end = _lane(end, 0, B)
+            x, q = np.asarray(x)[..., :1], np.asarray(q)[..., :1]
+            ok = np.isfinite(x).all((0, 1, 2)) & np.isfinite(q).all((0, 1, 2))
+            up = 1.0 - 2.0 * (q[:, 1, track] ** 2 + q[:, 2, track] ** 2)
+            psi_end = np.asarray(bd.heading(model, quat_to_mat(end.q)))
+            passed, done_at, tilt, _ = judge(x[:, :2, track], up, psi_end[:1], ok, pts, k, reach=reach)
+            b = 0
         if not ok[b]:
             fell = "diverged"
             break
@@ -248,7 +261,7 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
         qs.append(q[..., b])
         log.append({"cycle": c, "cell": cell, "want_turn": want, "turn": float(rep.descriptors[cell, 1]),
                     "speed": float(rep.descriptors[cell, 0]), "waypoint": k, "tilt": float(tilt[b]),
-                    "safe": int((tilt <= safe_tilt).sum()) if lookahead else None})
+                    "safe": n_safe})
         if tilt[b] > FALL_TILT:
             fell = "fell"
         if done_at[b] >= 0:

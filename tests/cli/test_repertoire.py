@@ -83,3 +83,7 @@ def test_follow_walks_with_a_speed_turn_repertoire(tmp_path, capsys):
         g = w["gaits"][0]
         assert w["cycles"] == 1 and len(w["trajectory"]) == 41 and g["want_turn"] == pytest.approx(0, abs=1e-3)
         assert w["lookahead"] == int(la) and (g["safe"] is None if la == "0" else 0 <= g["safe"] <= 16)
+    from cpgjax.experiments.follow import follow
+
+    r = follow(MODEL, str(rep), "line:5", cycles=1, lookahead=16, replay=True)     # the chosen gait walked alone
+    assert r["cycles"] == 1 and len(r["trajectory"]) == 41 and r["gaits"][0]["cell"] == w["gaits"][0]["cell"]
