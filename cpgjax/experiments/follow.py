@@ -181,7 +181,7 @@ def pick(cost, tilt, safe_tilt: float = SAFE_TILT) -> int:
 def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = None, reach: float = 0.2,
            video: str | None = None, min_speed: float | None = None, max_tilt: float | None = None,
            lookahead: int = LOOKAHEAD, safe_tilt: float = SAFE_TILT, deviation: float = DEVIATION,
-           aim: float = AIM, replay: bool = False) -> dict:
+           aim: float = AIM, replay: bool = False, copies: int = 1, jitter: float = 0.01) -> dict:
     """Walk ``path`` choosing gaits of ``repertoire`` (see the module docstring); returns the walk and its measures.
 
     ``lookahead`` 0: the nearest-turn rule; K > 0: the K candidates whose turning rate is nearest ``w*`` are
@@ -190,7 +190,9 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
     candidates' least heading speed, a share of the fastest elite's): 0.2 with the look-ahead, else 0.5.
     ``replay``: the walk is not the chosen candidate's simulation but the chosen gait run again from the same
     state alone (a batch of one robot: other instructions, so other last bits, and a chaotic gait diverges
-    from its prediction: a look-ahead whose model is not exact; docs/repertoire.md measures what it changes)."""
+    from its prediction: a look-ahead whose model is not exact; docs/repertoire.md measures what it changes).
+    ``copies`` M > 1: each candidate is simulated as M copies, copies 1..M-1 with every body's velocity and
+    angular velocity jittered by N(0, ``jitter``) (m/s, rad/s), and judged by its worst copy's tilt."""
     rep = read_repertoire(repertoire)
     if tuple(rep.grid.names) != ("heading_speed", "turn"):
         raise ResultsError(f"{repertoire}: follow chooses gaits by turning rate: it needs a speed-turn repertoire "
@@ -216,7 +218,9 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
     if not fwd.any():
         raise ResultsError(f"{repertoire}: no elite walks forward with a mean tilt <= {max_tilt} rad")
     cand = idx[fwd]
-    B = max(LANES, -(-min(lookahead, len(cand)) // LANES) * LANES)
+    M = max(1, copies) if lookahead else 1
+    B = max(LANES, -(-min(lookahead, len(cand)) * M // LANES) * LANES)
+    rng = np.random.default_rng(0)
     run = _cycle_fn(model, steps, sub)
     state = initial_state(model, B)
     track = model.track
@@ -232,16 +236,25 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
         want = err / period
         score = np.abs(rep.descriptors[cand, 1] - want) - 1e-6 * rep.descriptors[cand, 0]
         order = cand[np.argsort(score, kind="stable")[:max(1, lookahead)]]
-        cells = np.resize(order, B)                  # the candidates, repeated to fill the batch
+        cells = np.resize(np.repeat(order, M), B)   # the candidates (M copies each), repeated to fill the batch
         coeffs = np.stack([rep.genomes[i].reshape(model.n_ctrl, model.n_coeff) for i in cells], -1)
-        end, (x, q) = run(state, jnp.asarray(coeffs))
+        start = state
+        if M > 1:                                    # copies 1..M-1 of each candidate: the bodies' velocities jittered
+            jit = (np.arange(B) % M != 0).astype(np.float32) * jitter
+            start = state._replace(v=state.v + jnp.asarray(rng.standard_normal(state.v.shape) * jit, state.v.dtype),
+                                   w=state.w + jnp.asarray(rng.standard_normal(state.w.shape) * jit, state.w.dtype))
+        end, (x, q) = run(start, jnp.asarray(coeffs))
         psi_end = np.asarray(bd.heading(model, quat_to_mat(end.q)))
         x, q = np.asarray(x), np.asarray(q)          # [S, 3, nb, B], [S, 4, nb, B]
         ok = np.isfinite(x).all((0, 1, 2)) & np.isfinite(q).all((0, 1, 2))
-        n = len(order) if lookahead else 1
+        n = len(order) * M if lookahead else 1
         up = 1.0 - 2.0 * (q[:, 1, track, :n] ** 2 + q[:, 2, track, :n] ** 2)   # cos of the body's tilt (R_zz)
         passed, done_at, tilt, cost = judge(x[:, :2, track, :n], up, psi_end[:n], ok[:n], pts, k, reach=reach,
                                             deviation=deviation, aim=aim)
+        if M > 1:                                    # a candidate is as tilted as its worst copy, as costly as copy 0
+            worst = np.where(ok[:n].reshape(-1, M).all(1), tilt.reshape(-1, M).max(1), np.inf)
+            tilt = np.full(n, np.inf)
+            tilt[::M] = worst
         b = pick(cost, tilt, safe_tilt) if lookahead else 0
         cell = int(cells[b])
         n_safe = int((tilt <= safe_tilt).sum()) if lookahead else None

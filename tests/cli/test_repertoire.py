@@ -87,3 +87,5 @@ def test_follow_walks_with_a_speed_turn_repertoire(tmp_path, capsys):
 
     r = follow(MODEL, str(rep), "line:5", cycles=1, lookahead=16, replay=True)     # the chosen gait walked alone
     assert r["cycles"] == 1 and len(r["trajectory"]) == 41 and r["gaits"][0]["cell"] == w["gaits"][0]["cell"]
+    r = follow(MODEL, str(rep), "line:5", cycles=1, lookahead=8, copies=2)       # judged by the worse of 2 copies
+    assert r["cycles"] == 1 and 0 <= r["gaits"][0]["safe"] <= 8
