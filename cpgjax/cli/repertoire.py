@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 from typing import Any
 
@@ -123,9 +124,14 @@ def register(subparsers: Any) -> None:
     p.add_argument("--level", type=o.fraction, default=0.7, help="study: the share of R to reach (default 0.7)")
     p.add_argument("--ga-generations", type=o.count0, default=0,
                    help="study: generations of the GA from scratch on the damaged robot (population 20; 0: none)")
-    p.add_argument("--trials", type=o.count, default=None, help=f"most trials (default {a.trials}; study: 50)")
+    p.add_argument("--trials", type=o.count, default=None,
+                   help=f"most trials (default {a.trials}; study: 50 with the stopping rule off, {a.trials} with it)")
     p.add_argument("--alpha", type=o.fraction, default=None,
-                   help=f"stop when the best trial reaches alpha x the best prediction (default {a.alpha:g})")
+                   help=f"stop when the best trial reaches alpha x min(the best prediction + STOP_Z standard "
+                        f"deviations, the repertoire's best) (default {a.alpha:g})")
+    p.add_argument("--stop-z", type=o.nonneg, default=None, metavar="STOP_Z",
+                   help=f"the stopping rule's confidence, in the GP's standard deviations (default {a.stop_z:g}; "
+                        "0: Cully et al.'s rule, alpha x the best prediction)")
     p.add_argument("--kappa", type=o.nonneg, default=None, help=f"UCB exploration weight (default {a.kappa:g})")
     p.add_argument("--rho", type=o.positive, default=None,
                    help=f"Matern-5/2 length scale, in descriptor units (default {a.rho:g})")
@@ -136,13 +142,21 @@ def register(subparsers: Any) -> None:
 
     p = subparsers.add_parser(
         "follow", help="walk a path by choosing, every gait cycle, a gait of the repertoire",
-        description="Every gait cycle the robot takes the repertoire's gait whose turning rate best reduces the "
-                    "heading error to the next waypoint (a speed-turn repertoire), and walks the path.")
+        description="Every gait cycle the robot simulates the --lookahead gaits of the repertoire (a speed-turn "
+                    "one) whose turning rate best reduces the heading error to the next waypoint, from the state "
+                    "it is in, for one cycle, and walks the one that leaves the least path to walk without its "
+                    "body tilting past --safe-tilt (docs/repertoire.md, Steering).")
     p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl): the repertoire's")
     p.add_argument("--repertoire", required=True, metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
     p.add_argument("--path", required=True, metavar="SPEC",
                    help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m)")
     p.add_argument("--cycles", type=o.count, default=None, help="most gait cycles (default: 40)")
+    p.add_argument("--lookahead", type=o.int_in(0, 4096), default=None, metavar="K",
+                   help="candidate gaits simulated ahead every cycle, in one batch (default: 64); 0: no "
+                        "look-ahead, the gait whose turning rate is nearest the wanted one")
+    p.add_argument("--safe-tilt", type=o.float_in(0.0, math.pi, lo_open=True, what="an angle in (0, pi] rad"),
+                   default=None, metavar="RAD",
+                   help="a candidate whose body tilts more during the cycle is not taken (default: 0.8 rad)")
     p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
@@ -205,13 +219,12 @@ def cmd_adapt(args: argparse.Namespace) -> int:
 
     from cpgjax.experiments.adapt import ADAPT_DEFAULTS, adapt
 
-    cfg = dataclasses.replace(ADAPT_DEFAULTS, **{k: getattr(args, k) for k in ("trials", "alpha", "kappa", "rho",
-                                                                                 "noise")
-                                                 if getattr(args, k) is not None})
+    keys = ("alpha", "kappa", "rho", "noise", "stop_z") + (() if args.study else ("trials",))
+    cfg = dataclasses.replace(ADAPT_DEFAULTS, **{k: getattr(args, k) for k in keys if getattr(args, k) is not None})
     if args.out:
         o.check_output_file(args.out)
     if args.study:
-        return _study(args)
+        return _study(args, cfg)
     if len(args.repertoire) > 1 or len(args.damage) > 1:
         raise ValueError("several --repertoire or --damage: add --study (one adaptation takes one of each)")
     r = adapt(args.model, args.repertoire[0], args.damage[0], cfg)
@@ -225,11 +238,11 @@ def cmd_adapt(args: argparse.Namespace) -> int:
     return 0
 
 
-def _study(args: argparse.Namespace) -> int:
+def _study(args: argparse.Namespace, cfg) -> int:
     from cpgjax.experiments.adapt import study
 
     r = study(args.model, args.repertoire, args.damage, level=args.level, trials=args.trials or 50,
-              ga_generations=args.ga_generations, progress=True)
+              ga_generations=args.ga_generations, progress=True, cfg=cfg)
     fmt = lambda v: "-" if v is None else str(v)  # noqa: E731
     print(f"{'damage':<22} {'seed':>4} {'elites':>6} {'R':>8} {'IT&E trials':>11} {'GA evals':>8}   "
           "IT&E's own stop: trials, best/R")
@@ -244,8 +257,11 @@ def _study(args: argparse.Namespace) -> int:
         ga = [row.get("ga_evaluations") for row in r["rows"] if row["damage"] == d]
         med = lambda xs: "not reached" if any(x is None for x in xs) and sum(x is None for x in xs) * 2 >= len(xs) \
             else f"{np.median([x if x is not None else np.inf for x in xs]):g}"  # noqa: E731
+        own = [row for row in r["rows"] if row["damage"] == d]
         print(f"{d}: median IT&E trials {med(it)}" + (f", median GA evaluations {med(ga)}" if args.ga_generations
-                                                       else ""))
+                                                       else "")
+              + f"; IT&E's own stop: median {np.median([w['ite_stop_trial'] for w in own]):g} trials, median "
+                f"best/R {np.median([w['ite_stop_fitness'] / w['R'] for w in own]):.2f}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)
@@ -271,7 +287,11 @@ def cmd_follow(args: argparse.Namespace) -> int:
     for f in (args.out, args.video):
         if f:
             o.check_output_file(f, "--out" if f == args.out else "--video")
-    r = follow(args.model, args.repertoire, args.path, cycles=args.cycles, video=args.video)
+    from cpgjax.experiments import follow as fw
+
+    r = follow(args.model, args.repertoire, args.path, cycles=args.cycles, video=args.video,
+               lookahead=fw.LOOKAHEAD if args.lookahead is None else args.lookahead,
+               safe_tilt=fw.SAFE_TILT if args.safe_tilt is None else args.safe_tilt)
     state = "finished" if r["finished"] else f"did not finish ({r['fell']})" if r["fell"] else "did not finish"
     print(f"{args.path}: {state} in {r['time']:.1f} s "
           f"({r['cycles']} gait cycles), mean distance from the path {r['mean_error']:.3f} m, "

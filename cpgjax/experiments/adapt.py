@@ -10,8 +10,9 @@ repertoire's length, terrain and pipeline; the search sees only the trial's fitn
   robot (one batched simulation; a robot's result does not depend on its batch, so each equals the trial
   of that elite), the best of them;
 - **IT&E**: the number of trials until the best trial reaches ``level x R`` (default 70 %), with the
-  stopping rule off so that the count is not cut short, and where the stopping rule would have stopped
-  (``ite_stop_trial``, ``ite_stop_fitness``: what a robot running ``cpgjax adapt`` gets);
+  stopping rule off so that the count is not cut short, and where the stopping rule stops, within the
+  adaptation's own budget of trials (``ite_stop_trial``, ``ite_stop_fitness``: what a robot running
+  ``cpgjax adapt`` with the same settings gets);
 - **the GA from scratch** (the thesis's GA, :mod:`cpgjax.optim.ga`, its seed the repertoire's) on the
   damaged robot: the number of evaluations until its best so far reaches the same level.
 """
@@ -90,9 +91,11 @@ def first_reaching(best_so_far: np.ndarray, level: float) -> int | None:
 
 
 def study(model: str, repertoires: list[str], damages: list[str], *, level: float = 0.7,
-          trials: int = 50, ga_generations: int = 0, ga_population: int = 20, progress: bool = False) -> dict:
+          trials: int = 50, ga_generations: int = 0, ga_population: int = 20, progress: bool = False,
+          cfg: ITEConfig = ADAPT_DEFAULTS) -> dict:
     """The table of docs/repertoire.md: per damage and repertoire, ``R``, IT&E's trials and the GA's
-    evaluations to reach ``level x R`` (see the module docstring)."""
+    evaluations to reach ``level x R`` (see the module docstring).  IT&E runs with ``cfg`` (its GP and
+    search): at most ``trials`` trials with the stopping rule off, at most ``cfg.trials`` with it on."""
     from tqdm.auto import tqdm
 
     from cpgjax.experiments.evolve import run_ga
@@ -113,11 +116,11 @@ def study(model: str, repertoires: list[str], damages: list[str], *, level: floa
             idx = rep.cells
             scores = damaged_scores(problem, rep.genomes[idx])
             R = float(np.nanmax(scores))
-            cfg = ITEConfig(trials=min(trials, len(idx)))
-            r = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]), cfg, stop=False)
+            r = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]),
+                    dataclasses.replace(cfg, trials=min(trials, len(idx))), stop=False)
             ys = np.maximum.accumulate([t["fitness"] for t in r["trials"]])
             stopped = ite(normalised(rep, idx), rep.fitness[idx], lambda i, s=scores: float(s[i]),
-                          ITEConfig(trials=min(trials, len(idx))))
+                          dataclasses.replace(cfg, trials=min(cfg.trials, len(idx))))
             row = {"damage": problem.meta["damage"], "repertoire": rep.path, "seed": int(rep.config.get("seed", 0)),
                    "elites": int(len(idx)), "R": R, "intact_best": float(rep.fitness[idx].max()),
                    "ite_trials": first_reaching(ys, level * R), "ite_best": float(ys[-1]),

@@ -56,6 +56,8 @@ def test_the_study_compares_ite_with_the_ga_from_scratch(duty, tmp_path, capsys)
     (["repertoire", MODEL, "--cells", "3x3", "--evaluations", "16", "--batch", "16"], "--cells gives 2 numbers"),
     (["repertoire", MODEL, "--damage", "leg=ZZ", *TINY], "no leg 'ZZ'; the model's legs are AR, AL, PR, PL"),
     (["adapt", MODEL, "--repertoire", "missing.h5", "--damage", "leg=AR"], "missing.h5: no such file"),
+    (["follow", MODEL, "--repertoire", "r.h5", "--path", "line:1", "--lookahead", "-1"], "argument --lookahead"),
+    (["follow", MODEL, "--repertoire", "r.h5", "--path", "line:1", "--safe-tilt", "0"], "argument --safe-tilt"),
 ])
 def test_bad_input_is_one_line(argv, message, tmp_path, capsys):
     rc = main([*argv, "--out", str(tmp_path / "x.h5")] if argv[0] == "repertoire" else argv)
@@ -72,9 +74,18 @@ def test_follow_needs_a_speed_turn_repertoire(duty, capsys):
 def test_follow_walks_with_a_speed_turn_repertoire(tmp_path, capsys):
     rep = tmp_path / "st.h5"
     assert main(["repertoire", MODEL, "--descriptor", "speed-turn", "--cells", "4", *TINY, "--out", str(rep)]) == 0
-    rc = main(["follow", MODEL, "--repertoire", str(rep), "--path", "line:5", "--cycles", "1",
-               "--out", str(tmp_path / "w.json")])
-    out = capsys.readouterr().out
-    assert rc == 0 and "line:5: did not finish" in out
-    w = json.loads((tmp_path / "w.json").read_text())
-    assert w["cycles"] == 1 and len(w["trajectory"]) == 41 and w["gaits"][0]["want_turn"] == pytest.approx(0, abs=1e-3)
+    for la in ("0", "16"):      # the nearest-turn rule, and the look-ahead over 16 candidates
+        rc = main(["follow", MODEL, "--repertoire", str(rep), "--path", "line:5", "--cycles", "1",
+                   "--lookahead", la, "--out", str(tmp_path / "w.json")])
+        out = capsys.readouterr().out
+        assert rc == 0 and "line:5: did not finish" in out
+        w = json.loads((tmp_path / "w.json").read_text())
+        g = w["gaits"][0]
+        assert w["cycles"] == 1 and len(w["trajectory"]) == 41 and g["want_turn"] == pytest.approx(0, abs=1e-3)
+        assert w["lookahead"] == int(la) and (g["safe"] is None if la == "0" else 0 <= g["safe"] <= 16)
+    from cpgjax.experiments.follow import follow
+
+    r = follow(MODEL, str(rep), "line:5", cycles=1, lookahead=16, replay=True)     # the chosen gait walked alone
+    assert r["cycles"] == 1 and len(r["trajectory"]) == 41 and r["gaits"][0]["cell"] == w["gaits"][0]["cell"]
+    r = follow(MODEL, str(rep), "line:5", cycles=1, lookahead=8, copies=2)       # judged by the worse of 2 copies
+    assert r["cycles"] == 1 and 0 <= r["gaits"][0]["safe"] <= 8

@@ -63,17 +63,21 @@ def test_an_undamaged_robot_takes_its_best_gait_at_the_first_trial_and_stops():
 
 
 def test_a_damage_that_ruins_one_region_is_avoided_in_a_few_trials():
-    """The damage halves the fitness of every gait with descriptor x0 > 0.5 (where the prior's best lie):
-    IT&E tries the prior's best first, then leaves that region and stops (alpha 0.9 of its own prediction) on a
-    gait of the undamaged half within 85 % of the best remaining one, in <= 10 trials (here: 4)."""
+    """The damage cuts to 0.3 the fitness of every gait with descriptor x0 > 0.5 (where the prior's best lie):
+    IT&E tries the prior's best first, then leaves that region.  Cully's stopping rule (alpha 0.9 of its own
+    best prediction, ``stop_z=0``) stops after 4 trials at 0.85 of the best remaining gait; the default rule
+    (0.9 of the best prediction + 2 sd) searches on and stops at the best remaining gait itself, in 10."""
     g = np.linspace(0, 1, 21)
     desc = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
     prior = 0.1 + 0.2 * desc[:, 0] - 0.05 * (desc[:, 1] - 0.5) ** 2
     damaged = np.where(desc[:, 0] > 0.5, 0.3 * prior, prior)
-    r = ite.ite(desc, prior, lambda i: float(damaged[i]), ite.ITEConfig(trials=10))
+    cully = ite.ite(desc, prior, lambda i: float(damaged[i]), ite.ITEConfig(trials=20, stop_z=0))
+    assert len(cully["trials"]) == 4 and 0.85 <= cully["best_fitness"] / damaged.max() < 0.9
+    assert cully["stop"] == "best trial >= 0.9 x best prediction"
+    r = ite.ite(desc, prior, lambda i: float(damaged[i]), ite.ITEConfig(trials=20))
     assert r["trials"][0]["index"] == int(np.argmax(prior))
-    assert r["best_fitness"] >= 0.85 * damaged.max() and desc[r["best_index"], 0] <= 0.5
-    assert len(r["trials"]) <= 10 and "prediction" in r["stop"]
+    assert r["best_fitness"] == damaged.max() and desc[r["best_index"], 0] <= 0.5
+    assert len(r["trials"]) == 10 and "prediction + 2 sd" in r["stop"]
     assert damaged[r["best_index"]] == r["best_fitness"]
 
 
@@ -82,6 +86,8 @@ def test_bad_settings():
         ite.ITEConfig(alpha=1.5)
     with pytest.raises(ValueError, match="rho"):
         ite.ITEConfig(rho=0)
+    with pytest.raises(ValueError, match="stop_z"):
+        ite.ITEConfig(stop_z=-1)
 
 
 def test_without_the_stopping_rule_it_runs_every_trial_and_never_repeats_one():
