@@ -18,6 +18,7 @@ def run_file(tmp_path_factory):
     return p
 
 
+@pytest.mark.slow  # 15 s with its run; fast: the bristle scale in sim/test_variation.py
 def test_friction_study_reports_each_bristle(run_file, tmp_path, capsys):
     out = tmp_path / "friction.md"
     argv = ["study-friction", "--runs", str(run_file), "--springs", "1e3:300,1e5:1e3", "--replays", "3",

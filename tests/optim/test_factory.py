@@ -43,6 +43,7 @@ def test_the_thesis_problem_is_deterministic_and_the_robust_one_is_stochastic(ro
     assert "rough" in p.meta["terrain"]
 
 
+@pytest.mark.slow  # 15 s; fast: experiments/test_robust.py
 def test_robust_fitness_is_fresh_per_key_reproducible_and_batch_independent(robust, trot):
     _, f = robust
     G = jnp.asarray(np.repeat(trot[None], 4, 0))

@@ -67,6 +67,7 @@ def _tumbling_chain(dt):
     return free, s0
 
 
+@pytest.mark.slow  # 13 s; fast: the energy of the pendulum and the double pendulum
 def test_a_free_chain_in_space_keeps_its_momentum_and_energy_to_the_steps_first_order():
     """No external force: momentum is constant.  Semi-implicit Euler in generalized coordinates keeps it to
     O(dt) (the Coriolis force is explicit), as MuJoCo's Euler does: measured over 2 s, the drift is 0.5 % of the

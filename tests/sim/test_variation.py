@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from simcases import block_on_slope, box
 
 from cpgjax.episode.batch import evaluate
@@ -19,6 +20,7 @@ def _run(m, var, time, record=False):
     return jax.tree.map(np.asarray, jax.jit(lambda v: rollout(m, coeffs, time=time, var=v, record=record))(var))
 
 
+@pytest.mark.slow  # 9 s; fast: test_bristle_scale_is_a_stiffer_friction_spring runs the varied step
 def test_the_nominal_variation_is_the_nominal_robot():
     m = load_model("models/quadruped.wl")
     rng = np.random.default_rng(0)
