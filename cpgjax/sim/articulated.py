@@ -299,36 +299,6 @@ class Factor:
             x[lvl] = xl
         return keep(x, self.pred)
 
-    def half_solve(self, lvl, items, b, br):
-        """``y = L^-T J^T`` for rows ``J^T`` supported on the path of level-``lvl`` bodies ``items``: ``b[a]`` [n, B]
-        on the path's joint DOFs (a = 1..lvl), ``br`` [6, n, B] on the root's.  Returns (y, yr) on the same path,
-        so that ``J M^-1 J'^T = sum y y' / D``."""
-        lv = self.lv
-        anc = {a: (lv.anc[lvl][a][items] if a < lvl else np.asarray(items)) for a in range(lvl + 1)}
-        y = {}
-        for a in range(lvl, 0, -1):
-            ya = b.get(a, 0.0)
-            for a2 in range(a + 1, lvl + 1):
-                ya = ya - take(self.La[a2][a], anc[a2]) * y[a2]
-            y[a] = ya
-        if y:                                   # each of the root's six rows reads them all
-            y = keep(y, self.pred)
-        yr = br if br is not None else 0.0
-        for a in range(1, lvl + 1):
-            yr = yr - take(self.Lr[a], anc[a]) * y[a][None]
-        yr = [yr[i] for i in range(6)]
-        for k in range(5, -1, -1):
-            for i in range(k):
-                yr[i] = yr[i] - take(self.Lrr[(k, i)], anc[0]) * yr[k]
-        return keep((y, jnp.stack(yr)), self.pred) + (anc,)
-
-    def kdot(self, ya, yb, anc):
-        """``sum_i ya_i yb_i / D_i`` over a path (see :meth:`half_solve`)."""
-        out = sum0(ya[1] * yb[1] * take(self.Dr, anc[0]))
-        for a in ya[0]:
-            out = out + ya[0][a] * yb[0][a] * take(self.Dinv[a], anc[a])
-        return out
-
 
 # ---------------------------------------------------------------------------------------------------------
 # the dynamics
@@ -497,7 +467,6 @@ class _Contacts:
         root_item = np.array([lv.item_of[model.tree.root[b]] for b in self.cb])
         self.world = self.p + take(kin.O, root_item)
         self.r, self.p, self.world = keep((self.r, self.p, self.world), kin.pred)
-        self.by_body = _slots_by(self.cb, model.nb)                              # [k, nb]
         # each level's bodies' vertices: the wrenches sum them level by level (no concatenation per slot)
         self.by_level = [_slots([list(np.nonzero(self.cb == b)[0]) for b in bs]) for bs in lv.bodies]
         self.level = lv.level_of[self.cb]
@@ -601,6 +570,7 @@ def _contact_step(model, state, kin, M, tau, var):
     fa = jnp.where(touch, A * depth, 0.0)
     v_start = fr.comp(con.velocities(state.w, state.v))
     fa, z_1, z_2, v_start = keep((fa, z_1, z_2, v_start), kin.pred)
+    geo = _ContactJacobian(model, kin, con, fr)
 
     def law(vel):                               # the stick law's forces (n, t1, t2) at end-of-step velocities
         v_n, v_1, v_2 = vel
@@ -616,14 +586,14 @@ def _contact_step(model, state, kin, M, tau, var):
     def solve(push, lam):
         beta = dt * bp * lam                    # dt K = beta I + gamma n n^T
         gamma = dt * B * push - beta
-        fac = Factor(model, keep(_add_m(M, _contact_damping(model, kin, con, beta, gamma, fr)), kin.pred), kin.pred)
-        f_n, f_1, f_2 = law(v_start)
-        f0 = fr.world(push * f_n, lam * f_1, lam * f_2)
+        fac = Factor(model, keep(_add_m(M, _contact_damping(model, geo, beta, gamma)), kin.pred), kin.pred)
+        f0 = fr.world(push * f_start[0], lam * f_start[1], lam * f_start[2])
         qdd = fac.solve(_add(tau, project(model, kin, *con.wrenches(model, kin, f0))))
         w_1, v_1 = body_velocities(model, kin, _axpy(u, dt, qdd))
         return qdd, law(fr.comp(con.velocities(w_1, v_1)))
 
-    push, lam = keep(modes(law(v_start)), kin.pred)
+    f_start = law(v_start)
+    push, lam = keep(modes(f_start), kin.pred)
     qdd, f = solve(push, lam)
     held = keep((f[0] > 0.0).astype(lam.dtype), kin.pred)   # the ground never pulls: release those it would pull
     qdd, f = solve(push * held, lam * held)
@@ -651,44 +621,54 @@ def _mul(a, b):
     return a * b
 
 
-def _contact_damping(model, kin, con, beta, gamma, fr):
+class _ContactJacobian:
+    """Each contact vertex's Jacobian along the terrain frame's directions ``e`` (the normal ``n``, ``t1``, ``t2``):
+    ``w_e = (e, p x e)`` on the root's six DOFs (p: the vertex from the root's CM) and ``j_e = e . (a x (p -
+    pivot))`` on each joint above it, with the static maps from vertices to their ancestors.  On flat ground the
+    directions are the world's axes and the zero entries are ``None`` (left out)."""
+
+    def __init__(self, model, kin, con, fr):
+        lv = model.levels
+        p = con.p
+        if fr.n is None:                        # (e components, p x e), per axis x, y, z; n is z
+            self.ws = [(1.0, None, None, None, p[2], -p[1]), (None, 1.0, None, -p[2], None, p[0]),
+                       (None, None, 1.0, p[1], -p[0], None)]
+            self.normal = 2
+            dirs = [0, 1, 2]
+        else:
+            self.ws, dirs = [], [fr.n, fr.t1, fr.t2]
+            for e in dirs:
+                pe = cross(p, e)
+                self.ws.append((e[0], e[1], e[2], pe[0], pe[1], pe[2]))
+            self.normal = 0
+        # per level a: each vertex's Jacobian on its level-a ancestor's joint (zero where it is above level a)
+        anc_item, self.jac = {}, {}
+        for a in range(lv.depth + 1):
+            items = np.array([(lv.anc[L][a][i] if a < L else i) if a <= L else -1
+                              for L, i in zip(con.level, con.item, strict=True)], np.int64)
+            anc_item[a] = items
+            if a == 0:
+                continue
+            mask = items >= 0
+            ai = np.maximum(items, 0)
+            c = cross(take(kin.a[a], ai), p - take(kin.p[a], ai))
+            if not mask.all():
+                c = c * mask.astype(np.float32)[:, None]
+            self.jac[a] = [c[e] if isinstance(e, int) else dot(c, e) for e in dirs]
+        self.slots = {a: _slots_by(anc_item[a], len(lv.bodies[a])) for a in range(lv.depth + 1)}
+
+
+def _contact_damping(model, geo, beta, gamma):
     """``J^T (beta I + gamma n n^T) J`` in the joint-space inertia's layout, for every contact vertex (``beta``,
-    ``gamma`` [nc, B]; ``n`` the terrain's normal under it): the contact dampers made implicit.
+    ``gamma`` [nc, B]; ``geo``: the vertices' :class:`_ContactJacobian`): the contact dampers made implicit.
 
     Written as three rank-one terms per vertex, ``sum_e kappa_e j_e j_e^T`` over the terrain frame's directions
-    ``e`` (n: ``beta + gamma``; t1, t2: ``beta``), with ``j_e`` the vertex's Jacobian along ``e``: ``(e, p x e)``
-    on the root's six DOFs (p: the vertex from the root's CM), ``e . (a x (p - pivot))`` on each joint above it.
-    On flat ground the directions are the world's axes and the zero entries are left out.
+    (the normal: ``beta + gamma``; the tangents: ``beta``).
     """
     lv = model.levels
     D = lv.depth
-    p = con.p
-    if fr.n is None:                            # (e components, p x e) with None for zeros, per axis x, y, z
-        ws = [(1.0, None, None, None, p[2], -p[1]), (None, 1.0, None, -p[2], None, p[0]),
-              (None, None, 1.0, p[1], -p[0], None)]
-        kappas = [beta, beta, beta + gamma]
-        dirs = [0, 1, 2]
-    else:
-        ws, dirs = [], [fr.n, fr.t1, fr.t2]
-        for e in dirs:
-            pe = cross(p, e)
-            ws.append((e[0], e[1], e[2], pe[0], pe[1], pe[2]))
-        kappas = [beta + gamma, beta, beta]
-    # each vertex's Jacobian on its ancestors' joints, per level a (zero where the vertex is above level a)
-    anc_item, jac = {}, {}
-    for a in range(D + 1):
-        items = np.array([(lv.anc[L][a][i] if a < L else i) if a <= L else -1
-                          for L, i in zip(con.level, con.item, strict=True)], np.int64)
-        anc_item[a] = items
-        if a == 0:
-            continue
-        mask = items >= 0
-        ai = np.maximum(items, 0)
-        c = cross(take(kin.a[a], ai), p - take(kin.p[a], ai))
-        if not mask.all():
-            c = c * mask.astype(np.float32)[:, None]
-        jac[a] = [c[e] if isinstance(e, int) else dot(c, e) for e in dirs]
-    slots = {a: _slots_by(anc_item[a], len(lv.bodies[a])) for a in range(D + 1)}
+    ws, jac, slots = geo.ws, geo.jac, geo.slots
+    kappas = [beta + gamma if e == geo.normal else beta for e in range(3)]
     out = {"d": {}, "a": {}, "r": {}}
     root = [[None] * 6 for _ in range(6)]
     for k_e, w in zip(kappas, ws, strict=True):
@@ -697,9 +677,10 @@ def _contact_damping(model, kin, con, beta, gamma, fr):
                 t = _mul(_mul(k_e, w[i]), w[j])
                 if t is not None:
                     root[i][j] = t if root[i][j] is None else root[i][j] + t
-    rows = [[gather_sum(root[min(i, j)][max(i, j)] if root[min(i, j)][max(i, j)] is not None else
-                        jnp.zeros_like(beta), slots[0]) for j in range(6)] for i in range(6)]
-    Croot = jnp.stack([jnp.stack(r) for r in rows])
+    zero = jnp.zeros_like(beta)
+    upper = {(i, j): gather_sum(root[i][j] if root[i][j] is not None else zero, slots[0])
+             for i in range(6) for j in range(i, 6)}
+    Croot = jnp.stack([jnp.stack([upper[min(i, j), max(i, j)] for j in range(6)]) for i in range(6)])
     if not lv.free.all():
         Croot = Croot * lv.free.astype(np.float32)[:, None]
     out["root"] = Croot
@@ -714,9 +695,9 @@ def _contact_damping(model, kin, con, beta, gamma, fr):
                 x = _mul(kj[e], ws[e][i])
                 if x is not None:
                     t = x if t is None else t + x
-            r.append(gather_sum(t if t is not None else jnp.zeros_like(beta), slots[a]))
+            r.append(gather_sum(t if t is not None else zero, slots[a]))
         r = jnp.stack(r)
-        fm = lv.free[lv.anc[a][0]] if a else lv.free
+        fm = lv.free[lv.anc[a][0]]
         out["r"][a] = r if fm.all() else r * fm.astype(np.float32)[:, None]
     return out
 
