@@ -594,13 +594,34 @@ def _contact_step(model, state, kin, M, tau, var):
 
     f_start = law(v_start)
     push, lam = keep(modes(f_start), kin.pred)
-    qdd, f = solve(push, lam)
-    held = keep((f[0] > 0.0).astype(lam.dtype), kin.pred)   # the ground never pulls: release those it would pull
-    qdd, f = solve(push * held, lam * held)
-    push, lam = push * held, lam * held
+    push, lam, qdd, f = _release(solve, push, lam)
     f_n, f_1, f_2 = push * f[0], lam * f[1], lam * f[2]
     anchor = trail_anchor(model, fr, con.world, state.anchor, (z_1, z_2), touch, lam >= 1.0, f_n, var)
     return qdd, keep(fr.world(f_n, f_1, f_2), kin.pred), anchor, f_n
+
+
+def _release(solve, push, lam):
+    """``solve(push, lam)`` and, for the robots where it would have pulled some vertex, the solve again with
+    those vertices released (the ground never pulls); the second solve runs only in the steps where some robot
+    of the batch needs it.
+
+    Why: the release is needed in few steps (the trot: 70 of 5,000), and a second solve in every step was a
+    third of the step's kernels at the GA's 10 robots per device (310 against 236 kernels, 32.4 against 24.1 us
+    per step; docs/exact-joints.md).  Each robot takes the second solve's result only if it released a vertex
+    itself, else its own first solve's: so its bits do not depend on whether a neighbour in the batch made the
+    ``cond`` run (batch-size independence).
+    """
+    qdd, f = solve(push, lam)
+    held = (f[0] > 0.0).astype(lam.dtype)
+    pulled = jnp.any((push > 0.0) & (held == 0.0), axis=0)     # per robot: some vertex the ground would pull
+    push, lam = push * held, lam * held
+
+    def again(_):
+        qdd2, f2 = solve(push, lam)
+        return jax.tree.map(lambda a, b: jnp.where(pulled, a, b), (qdd2, f2), (qdd, f))
+
+    qdd, f = jax.lax.cond(jnp.any(pulled), again, lambda _: (qdd, f), None)
+    return push, lam, qdd, f
 
 
 def _add_m(M, C):

@@ -1,0 +1,18 @@
+"""cpgjax/episode/batch.py: the width of a batch on one device (the batch itself: test_rollout.py)."""
+
+from types import SimpleNamespace
+
+import pytest
+
+from cpgjax.episode.batch import LANES, lanes
+
+
+@pytest.mark.parametrize("n, springs, exact", [
+    (1, 16, 16), (16, 16, 16), (17, 32, 32), (33, 48, 64), (48, 48, 64), (65, 80, 128), (100, 112, 128),
+    (256, 256, 256), (257, 272, 512),
+])
+def test_a_batch_is_whole_simd_vectors_and_on_exact_joints_a_power_of_two_of_them(n, springs, exact):
+    # exact joints give a robot the same bits only at power-of-two widths (cpgjax/episode/batch.py: lanes)
+    assert lanes(SimpleNamespace(pipeline="springs"), n) == springs
+    assert lanes(SimpleNamespace(pipeline="exact"), n) == exact
+    assert exact % LANES == 0 and (exact // LANES) & (exact // LANES - 1) == 0
