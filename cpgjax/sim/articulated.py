@@ -601,26 +601,29 @@ def _contact_step(model, state, kin, M, tau, var):
 
 
 def _release(solve, push, lam):
-    """``solve(push, lam)`` and, for the robots where it would have pulled some vertex, the solve again with
-    those vertices released (the ground never pulls); the second solve runs only in the steps where some robot
-    of the batch needs it.
+    """``solve(push, lam)``, then once more with the vertices it would have pulled released (the ground never
+    pulls), the second pass only in the steps where some robot of the batch pulls a vertex.
 
-    Why: the release is needed in few steps (the trot: 70 of 5,000), and a second solve in every step was a
-    third of the step's kernels at the GA's 10 robots per device (310 against 236 kernels, 32.4 against 24.1 us
-    per step; docs/exact-joints.md).  Each robot takes the second solve's result only if it released a vertex
-    itself, else its own first solve's: so its bits do not depend on whether a neighbour in the batch made the
-    ``cond`` run (batch-size independence).
+    Why a loop: the release is needed in few steps (the trot: 70 of 5,000), and a second solve in every step
+    was a third of the step's kernels at the GA's 10 robots per device (310 against 236 kernels, 32.4 against
+    24.1 us per step; docs/exact-joints.md).  Both passes run the one compiled body, so a robot that releases
+    nothing gets the same bits whether or not a neighbour in its batch makes the loop take a second pass
+    (batch-size independence), and the solve is compiled once (a ``cond`` around a second copy compiled 15 %
+    longer and ran no faster: docs/exact-joints.md).
     """
-    qdd, f = solve(push, lam)
-    held = (f[0] > 0.0).astype(lam.dtype)
-    pulled = jnp.any((push > 0.0) & (held == 0.0), axis=0)     # per robot: some vertex the ground would pull
-    push, lam = push * held, lam * held
+    def body(c):
+        k, push, lam, _, f = c
+        held = jnp.where(k > 0, (f[0] > 0.0).astype(lam.dtype), 1.0)
+        push, lam = push * held, lam * held
+        qdd, f = solve(push, lam)
+        return k + 1, push, lam, qdd, f
 
-    def again(_):
-        qdd2, f2 = solve(push, lam)
-        return jax.tree.map(lambda a, b: jnp.where(pulled, a, b), (qdd2, f2), (qdd, f))
+    def again(c):
+        k, push, _, _, f = c
+        return (k == 0) | ((k == 1) & jnp.any((push > 0.0) & (f[0] <= 0.0)))
 
-    qdd, f = jax.lax.cond(jnp.any(pulled), again, lambda _: (qdd, f), None)
+    qdd0, f0 = jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype), jax.eval_shape(solve, push, lam))
+    _, push, lam, qdd, f = jax.lax.while_loop(again, body, (jnp.int32(0), push, lam, qdd0, f0))
     return push, lam, qdd, f
 
 
