@@ -6,8 +6,10 @@ Compiles a `jax.lax.scan` of 10 steps of BATCH robots (default the quadruped, 16
 device) and counts the operations of the loop's body that XLA's CPU runtime runs one by one (fusions,
 copies, loops, conditionals, ...; not the tuples, parameters and bitcasts, which cost nothing), with
 those of a conditional's taken branch (`keep`'s first form: a ``cond`` that always took its second branch)
-and of a zero-trip loop's condition (`keep`'s form now).  At 16 robots a step's time is about this count
-times 100 ns (docs/exact-joints.md, note 2).
+and of a zero-trip loop's condition (`keep`'s form now).  A loop that does work (the contact solve's, run once
+or, when some vertex is to be released, twice: `sim/articulated.py: _release`) is counted apart: its body's
+kernels run once per pass.  At 16 robots a step's time is about this count times 100 ns
+(docs/exact-joints.md, note 2).
 """
 
 import collections
@@ -44,6 +46,10 @@ def opcode(line):
     return m.group(2) if m else "?"
 
 
+WORK = 20   # a loop whose body launches more kernels than this does work (`keep`'s bodies: one fusion)
+LOOPS = []  # the bodies of such loops, counted apart
+
+
 def count(comps, name):
     c = collections.Counter()
     for line in comps[name]:
@@ -55,6 +61,9 @@ def count(comps, name):
             c.update(count(comps, re.search(r"branch_computations=\{([^}]*)\}", line).group(1).split(", ")[-1][1:]))
         if op == "while":
             c.update(count(comps, re.search(r"condition=%([\w.\-]+)", line).group(1)))
+            inner = count(comps, re.search(r"body=%([\w.\-]+)", line).group(1))
+            if sum(inner.values()) > WORK:
+                LOOPS.append(inner)
     return c
 
 
@@ -70,3 +79,6 @@ if __name__ == "__main__":
     c = count(comps, body)
     what = ", ".join(f"{k} {v}" for k, v in c.most_common())
     print(f"{wl}, {batch} robots: {sum(c.values())} kernels per step ({what})")
+    for inner in LOOPS:
+        what = ", ".join(f"{k} {v}" for k, v in inner.most_common())
+        print(f"  and a loop doing work, {sum(inner.values())} kernels per pass ({what})")
