@@ -57,6 +57,7 @@ def test_the_study_compares_ite_with_the_ga_from_scratch(duty, tmp_path, capsys)
     assert [r["damage"] for r in rows] == ["leg=AR", "weak=KneePL:0.2"]
     for r in rows:
         assert r["ite_best"] <= r["R"] and r["ga_budget"] == 40 and r["ite_trials"] is not None
+        assert len(r["scores"]) == r["elites"] and max(v for v in r["scores"] if v is not None) == r["R"]
 
 
 @pytest.mark.parametrize("argv, message", [
