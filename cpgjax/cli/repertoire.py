@@ -137,6 +137,11 @@ def register(subparsers: Any) -> None:
                    help=f"Matern-5/2 length scale, in descriptor units (default {a.rho:g})")
     p.add_argument("--noise", type=o.positive, default=None,
                    help=f"observation noise variance (default {a.noise:g})")
+    p.add_argument("--offset", action=argparse.BooleanOptionalAction, default=None,
+                   help="the GP's prior mean is the repertoire's fitness plus an unknown constant, learnt from the "
+                        "trials (a damage that lowers every gait is one shift, not a penalty on the tried "
+                        "elites' neighbours); --no-offset: Cully et al.'s prior mean, the repertoire's fitness "
+                        f"(default {'--offset' if a.offset else '--no-offset'})")
     p.add_argument("--out", default=None, metavar="TRIALS.json", help="write the trials as JSON")
     p.set_defaults(func=cmd_adapt)
 
@@ -219,7 +224,7 @@ def cmd_adapt(args: argparse.Namespace) -> int:
 
     from cpgjax.experiments.adapt import ADAPT_DEFAULTS, adapt
 
-    keys = ("alpha", "kappa", "rho", "noise", "stop_z") + (() if args.study else ("trials",))
+    keys = ("alpha", "kappa", "rho", "noise", "stop_z", "offset") + (() if args.study else ("trials",))
     cfg = dataclasses.replace(ADAPT_DEFAULTS, **{k: getattr(args, k) for k in keys if getattr(args, k) is not None})
     if args.out:
         o.check_output_file(args.out)

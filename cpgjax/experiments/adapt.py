@@ -15,6 +15,10 @@ repertoire's length, terrain and pipeline; the search sees only the trial's fitn
   ``cpgjax adapt`` with the same settings gets);
 - **the GA from scratch** (the thesis's GA, :mod:`cpgjax.optim.ga`, its seed the repertoire's) on the
   damaged robot: the number of evaluations until its best so far reaches the same level.
+
+Each row also keeps ``scores``, every elite's damaged fitness (in the order of ``Repertoire.cells``; None where
+the episode diverged), so that other IT&E settings can be measured on the same case without simulating again
+(IT&E only reads them).
 """
 
 from __future__ import annotations
@@ -125,7 +129,8 @@ def study(model: str, repertoires: list[str], damages: list[str], *, level: floa
                    "elites": int(len(idx)), "R": R, "intact_best": float(rep.fitness[idx].max()),
                    "ite_trials": first_reaching(ys, level * R), "ite_best": float(ys[-1]),
                    "ite_trials_run": len(ys), "ite_stop_trial": len(stopped["trials"]),
-                   "ite_stop_fitness": stopped["best_fitness"]}
+                   "ite_stop_fitness": stopped["best_fitness"],
+                   "scores": [None if not np.isfinite(v) else float(v) for v in scores]}
             if ga_generations:
                 cfg_ga = GAConfig(population=ga_population, generations=ga_generations,
                                   seed=int(rep.config.get("seed", 0)))

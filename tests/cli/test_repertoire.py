@@ -37,6 +37,15 @@ def test_repertoire_writes_a_file_that_adapt_plot_and_resume_read(duty, tmp_path
     assert "cannot resume: --cells" in capsys.readouterr().err
 
 
+def test_adapt_takes_the_offset_option(duty, tmp_path):
+    for flag, want in (("--offset", True), ("--no-offset", False)):
+        out = tmp_path / f"{flag}.json"
+        assert main(["adapt", MODEL, "--repertoire", str(duty), "--damage", "leg=AR", "--trials", "2", flag,
+                     "--out", str(out)]) == 0
+        r = json.loads(out.read_text())
+        assert r["config"]["offset"] is want and 1 <= len(r["trials"]) <= 2
+
+
 @pytest.mark.slow
 def test_the_study_compares_ite_with_the_ga_from_scratch(duty, tmp_path, capsys):
     capsys.readouterr()
@@ -48,6 +57,7 @@ def test_the_study_compares_ite_with_the_ga_from_scratch(duty, tmp_path, capsys)
     assert [r["damage"] for r in rows] == ["leg=AR", "weak=KneePL:0.2"]
     for r in rows:
         assert r["ite_best"] <= r["R"] and r["ga_budget"] == 40 and r["ite_trials"] is not None
+        assert len(r["scores"]) == r["elites"] and max(v for v in r["scores"] if v is not None) == r["R"]
 
 
 @pytest.mark.parametrize("argv, message", [
