@@ -70,7 +70,8 @@ def register(subparsers: Any) -> None:
 def _variant_options(p: argparse.ArgumentParser) -> None:
     """Options that change our simulator's side only (MuJoCo's model does not depend on them)."""
     p.add_argument("--dt", type=o.step,
-                   help="our simulator's step (default: the model's TimeStep, 5e-4 s for models/quadruped.wl)")
+                   help="our simulator's step (default: the model's TimeStep, its ExactTimeStep on exact joints; "
+                        "5e-4 s for models/quadruped.wl)")
     p.add_argument("--joint-spring", type=o.positive, nargs=2, metavar=("ALPHA", "BETA"),
                    help="our pivot springs' stiffness [N/m] and damping [N s/m] (eq. 3.6; default: the model's "
                         "JointSpring, 3e5 300 for models/quadruped.wl); stiffer ones need a smaller --dt "

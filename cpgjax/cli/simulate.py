@@ -21,7 +21,8 @@ def register(subparsers: Any) -> None:
     s.add_argument("--terrain", type=o.terrain, help=o.TERRAIN_HELP)
     s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
     s.add_argument("--dt", type=o.step,
-                   help="integration step (default: the file's TimeStep, else 5e-4 s; 2e-3 s with --pipeline exact)")
+                   help="integration step (default: the file's TimeStep, else 5e-4 s; with --pipeline exact "
+                        "its ExactTimeStep, else its TimeStep, else 2e-3 s)")
     o.pipeline_option(s)
     s.add_argument("--gravity", type=o.finite, help="gravity [m/s^2] (default: the file's, 9.81)")
     s.add_argument("--delta", type=o.positive, default=DEFAULT_DELTA,

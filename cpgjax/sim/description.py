@@ -141,6 +141,8 @@ class Description:
     friction_dynamic: float | None = None  # None: same as static
     gravity: float = 9.81
     time_step: float | None = None  # None: the simulator's default (from the stability study)
+    # the exact pipeline's step (``ExactTimeStep``); None: ``time_step``, else DEFAULT_DT_EXACT
+    exact_time_step: float | None = None
     ground: tuple[float, float] = (1.0e5, 1.0e3)  # A [kg/s^2], B [kg/s] (eq. 3.7)
     joint_spring: tuple[float, float] | None = None  # alpha [N/m], beta [N s/m] (eq. 3.6); None: default
     friction_spring: tuple[float, float] | None = None  # friction bristle k [N/m], b [N s/m]; None: default

@@ -213,6 +213,14 @@ def _check_body(path: str, desc: Description, kind: str, name: str, mass: float,
                                            "and Dimensions")
 
 
+def file_dt(desc: Description, pipeline: str) -> float:
+    """The step a model file asks for on ``pipeline``: on "exact" its ``ExactTimeStep``, else its
+    ``TimeStep``, else :data:`DEFAULT_DT_EXACT`; on "springs" its ``TimeStep``, else :data:`DEFAULT_DT`."""
+    if pipeline == "exact":
+        return desc.exact_time_step or desc.time_step or DEFAULT_DT_EXACT
+    return desc.time_step or DEFAULT_DT
+
+
 def build_model(desc: Description, *, dt: float | None = None, terrain: str | None = None,
                 pipeline: str | None = None) -> Model:
     """Turn a Description into a Model.  ``terrain`` (CLI syntax) overrides the file's; ``pipeline``
@@ -393,7 +401,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         mu_static=float(desc.friction),
         mu_dynamic=float(desc.friction_dynamic if desc.friction_dynamic is not None else desc.friction),
         alpha=float(alpha), beta=float(beta), friction_k=float(friction_k), friction_b=float(friction_b),
-        dt=float(dt or desc.time_step or (DEFAULT_DT_EXACT if pipe == "exact" else DEFAULT_DT)),
+        dt=float(dt or file_dt(desc, pipe)),
         terrain=make_terrain(terrain) if terrain else make_terrain(tdef),
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,

@@ -154,3 +154,18 @@ def test_evolve_two_generations_on_the_exact_pipeline(tmp_path, capsys):
                  "--out", str(out), "--resume", "--quiet"]) == 2
     assert "--pipeline springs differs from the run's exact" in capsys.readouterr().err
     assert read_run(out).completed == 2
+
+
+@pytest.mark.parametrize(("pipeline", "dt"), [("exact", 2e-3), ("springs", 2.5e-4)])
+def test_adapt_rebuilds_a_repertoires_model_on_its_pipeline_and_step(pipeline, dt):
+    """`cpgjax adapt` has no --pipeline: the damaged robot runs on the repertoire's (its meta), at the step the
+    model file gives that pipeline (models/hexapod.wl: ExactTimeStep 2e-3, TimeStep 2.5e-4)."""
+    from types import SimpleNamespace
+
+    from cpgjax.experiments.adapt import damaged_problem
+    from cpgjax.io.wl import load_wl
+
+    meta = {"model_text": load_wl("models/hexapod.wl").text, "descriptor": "duty", "time": 0.2,
+            "pipeline": pipeline, "cli_problem_args": "{}"}
+    problem = damaged_problem("models/hexapod.wl", SimpleNamespace(path="r.h5", meta=meta), "leg=CR")
+    assert (problem.meta["pipeline"], problem.meta["dt"], problem.meta["damage"]) == (pipeline, dt, "leg=CR")

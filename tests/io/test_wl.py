@@ -199,8 +199,8 @@ def test_defaults_when_settings_are_absent():
     d = parse_wl("Object A {\n Type Cube\n Mass 1\n Dimensions 1 1 1\n}\n")
     ref = Description()
     for f in ("time_max", "simulate", "display", "text_only", "log_rate", "friction", "friction_dynamic",
-              "gravity", "time_step", "ground", "joint_spring", "friction_spring", "servo", "terrain", "track",
-              "harmonics", "frequency"):
+              "gravity", "time_step", "exact_time_step", "ground", "joint_spring", "friction_spring", "servo",
+              "terrain", "track", "harmonics", "frequency"):
         assert getattr(d, f) == getattr(ref, f), f
     assert d.path == "<string>" and d.joints == [] and d.logs == []
 
@@ -274,6 +274,8 @@ def _strip(d: Description) -> dict:
                                   "TimeStep 1e-4\nObject A {\n"
                                   " Type Sphere\n Mass 1\n Dimensions .1\n}\n",
                                   "Pipeline EXACT\nObject A {\n Type Sphere\n Mass 1\n Dimensions .1\n}\n",
+                                  "TimeStep 2.5e-4\nExactTimeStep 1e-3\nObject A {\n Type Sphere\n Mass 1\n"
+                                  " Dimensions .1\n}\n",
                                   "Pipeline springs\n" + SMALL])
 def test_format_round_trip(tmp_path, text):
     d = parse_wl(text)
@@ -468,3 +470,30 @@ def test_docs_example_parses():
     d = parse_wl(example, "one-leg.wl")
     assert list(d.compounds) == ["Body"] and [j.name for j in d.joints] == ["Hip", "Axle"]
     assert d.n_controlled == 1 and d.text_only and d.track == "Body"
+
+
+def test_exact_time_step_keyword():
+    d = parse_wl("TimeStep 2.5e-4\nexacttimestep 1E-3  # the exact pipeline's\n" + OBJ_A)
+    assert (d.time_step, d.exact_time_step) == (2.5e-4, 1e-3)
+    assert parse_wl(OBJ_A).exact_time_step is None
+    written = [w for w in format_wl(d).splitlines() if "TimeStep" in w]
+    assert written == ["TimeStep 0.00025", "ExactTimeStep 0.001"]
+    assert not [w for w in format_wl(parse_wl(OBJ_A)).splitlines() if "TimeStep" in w]
+
+
+@pytest.mark.parametrize(("head", "springs", "exact"), [
+    ("", "DEFAULT_DT", "DEFAULT_DT_EXACT"),
+    ("TimeStep 1e-4\n", 1e-4, 1e-4),                          # models/car.wl: one step on both
+    ("ExactTimeStep 1e-3\n", "DEFAULT_DT", 1e-3),
+    ("TimeStep 2.5e-4\nExactTimeStep 2e-3\n", 2.5e-4, 2e-3),  # models/hexapod.wl
+    ("ExactTimeStep 2e-3\nTimeStep 2.5e-4\n", 2.5e-4, 2e-3),  # order does not matter
+])
+def test_exact_time_step_sets_the_exact_pipelines_step_only(head, springs, exact):
+    from cpgjax.sim import model as m
+
+    want = [getattr(m, v) if isinstance(v, str) else v for v in (springs, exact)]
+    d = parse_wl(head + OBJ_A)
+    assert [m.build_model(d, pipeline=p).dt for p in ("springs", "exact")] == want
+    assert m.build_model(parse_wl("Pipeline exact\n" + head + OBJ_A)).dt == want[1]
+    # an explicit step (the commands' --dt) wins on both pipelines
+    assert [m.build_model(d, dt=3e-4, pipeline=p).dt for p in ("springs", "exact")] == [3e-4, 3e-4]

@@ -37,6 +37,7 @@ TOP_KEYWORDS: dict[str, str] = {
     "Friction": "Friction MU_STATIC [MU_DYNAMIC]",
     "Gravity": "Gravity M_PER_S2",
     "TimeStep": "TimeStep SECONDS",
+    "ExactTimeStep": "ExactTimeStep SECONDS",
     "Pipeline": "Pipeline springs|exact",
     "Ground": "Ground A B",
     "JointSpring": "JointSpring ALPHA BETA",

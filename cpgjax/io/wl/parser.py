@@ -139,6 +139,13 @@ class _Parser(StatementReader):
             self.limited(st, "TimeStep", (dt,), TIME_STEP[1], "s (docs/simulator.md: the default is 5e-4)",
                          lo=TIME_STEP[0])
             d.time_step = dt
+        elif kw == "ExactTimeStep":
+            (dt,) = self.numbers(st, kw, usage, 1)
+            if dt <= 0:
+                raise self.err(st.line, f"ExactTimeStep must be positive (seconds), got {dt:g}")
+            self.limited(st, "ExactTimeStep", (dt,), TIME_STEP[1],
+                         "s (docs/exact-joints.md: the default is 2e-3)", lo=TIME_STEP[0])
+            d.exact_time_step = dt
         elif kw == "Pipeline":
             d.pipeline = self.pipeline(st)
             d.pipeline_line = st.line

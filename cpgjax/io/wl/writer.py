@@ -40,6 +40,8 @@ def format_wl(desc: Description) -> str:
     ]
     if desc.time_step is not None:
         out.append(f"TimeStep {_g(desc.time_step)}")
+    if desc.exact_time_step is not None:
+        out.append(f"ExactTimeStep {_g(desc.exact_time_step)}")
     if desc.pipeline is not None:
         out.append(f"Pipeline {desc.pipeline}")
     out.append(f"Ground {_v(desc.ground)}")
