@@ -1,8 +1,8 @@
 """A sweep on Ray (cpgjax.experiments.sweep.cluster, cpgjax sweep --ray): the same files as in one process,
 a worker killed mid-sweep costs nothing but time, one task per run file, and the extra named when missing.
 
-One test starts Ray in the fast suite (two workers write the files of the sweep made in one process); the other
-Ray tests are marked slow (`make test-all`)."""
+Every test that starts Ray is marked slow (`make test-slow`, run by CI; 45 s of the 5-minute fast suite on 2
+cores, most of it starting Ray); the fast suite keeps the shards, the lock and the missing extra (below)."""
 
 from __future__ import annotations
 
@@ -50,6 +50,7 @@ def local_ray():
     ray.shutdown()
 
 
+@pytest.mark.slow  # Ray: 45 s, most of it starting Ray; fast: the shards, the lock, the missing extra (below)
 def test_two_workers_write_the_files_of_the_sweep_in_one_process(local_ray, tmp_path):
     here, there = str(tmp_path / "here"), str(tmp_path / "ray")
     assert cli.main(["sweep", *TINY, "--out", here]) == 0
@@ -67,7 +68,7 @@ def test_two_workers_write_the_files_of_the_sweep_in_one_process(local_ray, tmp_
     assert cli.main(["best", run, "--ctl", str(tmp_path / "b.ctl")]) == 0
 
 
-@pytest.mark.slow  # Ray: one test in the fast suite (the one above); `make test-all` runs the rest
+@pytest.mark.slow  # Ray
 def test_worker_killed_mid_sweep_is_retried_and_resumes_to_the_uninterrupted_files(local_ray, tmp_path):
     """SIGKILL the worker of shard 0 while it runs; Ray retries its task, which resumes its runs from their
     files; the sweep's files equal those of the same sweep never interrupted (in one process)."""
@@ -128,7 +129,7 @@ def test_ray_without_the_extra_is_named(tmp_path, monkeypatch, capsys):
     assert cli.main(["sweep", "analytic:sphere:10", "--out", out, "--workers", "2", "--dry-run"]) == 2
 
 
-@pytest.mark.slow  # Ray: one test in the fast suite (the first); `make test-all` runs the rest
+@pytest.mark.slow  # Ray
 def test_a_refused_run_in_a_task_is_named_as_in_one_process(local_ray, tmp_path, capsys):
     """A cpgjax error raised in a Ray task (here: a file made with other settings) reaches the user as itself."""
     import h5py
