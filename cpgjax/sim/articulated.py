@@ -594,13 +594,13 @@ def _contact_step(model, state, kin, M, tau, var):
 
     f_start = law(v_start)
     push, lam = keep(modes(f_start), kin.pred)
-    push, lam, qdd, f = _release(solve, push, lam)
+    push, lam, qdd, f = _release(solve, push, lam, tau)
     f_n, f_1, f_2 = push * f[0], lam * f[1], lam * f[2]
     anchor = trail_anchor(model, fr, con.world, state.anchor, (z_1, z_2), touch, lam >= 1.0, f_n, var)
     return qdd, keep(fr.world(f_n, f_1, f_2), kin.pred), anchor, f_n
 
 
-def _release(solve, push, lam):
+def _release(solve, push, lam, tau):
     """``solve(push, lam)``, then once more with the vertices it would have pulled released (the ground never
     pulls), the second pass only in the steps where some robot of the batch pulls a vertex.
 
@@ -622,7 +622,7 @@ def _release(solve, push, lam):
         k, push, _, _, f = c
         return (k == 0) | ((k == 1) & jnp.any((push > 0.0) & (f[0] <= 0.0)))
 
-    qdd0, f0 = jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype), jax.eval_shape(solve, push, lam))
+    qdd0, f0 = jax.tree.map(jnp.zeros_like, tau), (jnp.zeros_like(lam),) * 3    # shapes only: not read
     _, push, lam, qdd, f = jax.lax.while_loop(again, body, (jnp.int32(0), push, lam, qdd0, f0))
     return push, lam, qdd, f
 
