@@ -37,7 +37,7 @@ def lanes(model, n: int) -> int:
     twice the robots computed for a batch just over a power of two.
     """
     w = -(-max(n, 1) // LANES) * LANES
-    if getattr(model, "pipeline", "springs") == "exact":
+    if model.pipeline == "exact":
         w = LANES << max(0, (w // LANES - 1).bit_length())
     return w
 

@@ -42,7 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.episode import descriptors as bd
-from cpgjax.episode.batch import LANES
+from cpgjax.episode.batch import lanes
 from cpgjax.episode.cpg import targets
 from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.errors import ResultsError
@@ -104,7 +104,7 @@ def path_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 
 def _cycle_fn(model, steps: int, sub: int):
     """Jitted ``(state, coeffs [n_ctrl, 2K+1, B]) -> (state, (x [S, 3, nb, B], q [S, 4, nb, B]))``: one gait
-    cycle of B robots, sampled at the log rate (B a multiple of LANES).
+    cycle of B robots, sampled at the log rate (B from `cpgjax.episode.batch.lanes`).
 
     The robot runs as robot 0 of a whole SIMD vector of copies (:data:`cpgjax.episode.batch.LANES`), as the
     repertoire's evaluation ran it: a batch narrower than that is computed with other instructions, and an
@@ -219,7 +219,7 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
         raise ResultsError(f"{repertoire}: no elite walks forward with a mean tilt <= {max_tilt} rad")
     cand = idx[fwd]
     M = max(1, copies) if lookahead else 1
-    B = max(LANES, -(-min(lookahead, len(cand)) * M // LANES) * LANES)
+    B = lanes(model, min(lookahead, len(cand)) * M)     # whole SIMD vectors (on exact joints a power of two)
     rng = np.random.default_rng(0)
     run = _cycle_fn(model, steps, sub)
     state = initial_state(model, B)

@@ -132,20 +132,14 @@ class _Parser(StatementReader):
                 raise self.err(st.line, f"Gravity is the magnitude of g (pointing down, -z), must be >= 0, "
                                         f"got {g:g}")
             d.gravity = g
-        elif kw == "TimeStep":
+        elif kw in ("TimeStep", "ExactTimeStep"):   # the springs' (and default) step; the exact pipeline's
             (dt,) = self.numbers(st, kw, usage, 1)
             if dt <= 0:
-                raise self.err(st.line, f"TimeStep must be positive (seconds), got {dt:g}")
-            self.limited(st, "TimeStep", (dt,), TIME_STEP[1], "s (docs/simulator.md: the default is 5e-4)",
-                         lo=TIME_STEP[0])
-            d.time_step = dt
-        elif kw == "ExactTimeStep":
-            (dt,) = self.numbers(st, kw, usage, 1)
-            if dt <= 0:
-                raise self.err(st.line, f"ExactTimeStep must be positive (seconds), got {dt:g}")
-            self.limited(st, "ExactTimeStep", (dt,), TIME_STEP[1],
-                         "s (docs/exact-joints.md: the default is 2e-3)", lo=TIME_STEP[0])
-            d.exact_time_step = dt
+                raise self.err(st.line, f"{kw} must be positive (seconds), got {dt:g}")
+            doc = ("docs/simulator.md: the default is 5e-4" if kw == "TimeStep"
+                   else "docs/exact-joints.md: the default is 2e-3")
+            self.limited(st, kw, (dt,), TIME_STEP[1], f"s ({doc})", lo=TIME_STEP[0])
+            setattr(d, "time_step" if kw == "TimeStep" else "exact_time_step", dt)
         elif kw == "Pipeline":
             d.pipeline = self.pipeline(st)
             d.pipeline_line = st.line
