@@ -608,8 +608,9 @@ def _release(solve, push, lam, tau):
     was a third of the step's kernels at the GA's 10 robots per device (310 against 236 kernels, 32.4 against
     24.1 us per step; docs/exact-joints.md).  Both passes run the one compiled body, so a robot that releases
     nothing gets the same bits whether or not a neighbour in its batch makes the loop take a second pass
-    (batch-size independence), and the solve is compiled once (a ``cond`` around a second copy compiled 15 %
-    longer and ran no faster: docs/exact-joints.md).
+    (batch-size independence), and the solve is compiled once (a ``cond`` around a second copy took 15 % more
+    CPU to compile and the thesis-scale GA 7 % more CPU to run: docs/exact-joints.md).  The initial carry only
+    gives the loop its shapes (``tau``'s and ``lam``'s); the first pass overwrites it.
     """
     def body(c):
         k, push, lam, _, f = c
