@@ -17,11 +17,27 @@ sweep's results must equal the same run made alone (docs/sweeps.md), and a repla
 recorded.  Without these fusions every batch size gives the same numbers and small batches are unchanged
 bit for bit (``tests/episode/test_rollout.py``); measured beside it, batch 512 was not slower (3.1 s
 against 4.6 s for 512 robot-seconds on 2 cores).  The flag is specific to the pinned jaxlib (0.10.x).
+
+Third, compiled programs are kept between runs: JAX's persistent compilation cache in
+``$XDG_CACHE_HOME/cpgjax/xla/<cpu>`` (default ``~/.cache/...``; :func:`compile_cache_dir`).  Why: every
+command compiles the simulator again (4-7 s of the thesis-scale GA's 28-30 s on 2 cores); from the second
+run of the same program on, XLA's compile is a read from disk (docs/results/performance.md measures it).  A
+cached executable is the one XLA compiled for the same program, so results are the same bit for bit (the
+test suite has always run on such a cache: tests/conftest.py).  JAX's key covers the program, jax/jaxlib
+and the XLA flags; the folder adds the CPU's model and vector ISA, so that a home folder shared by
+several machines never loads a program compiled for another CPU.  A size limit (2 GiB, least recently
+used first out) also turns on JAX's file lock, for sweeps whose processes share it.
+``CPGJAX_COMPILE_CACHE=0`` turns it off, ``CPGJAX_COMPILE_CACHE=DIR`` moves it; a
+``JAX_COMPILATION_CACHE_DIR`` already set wins.  ``cpgjax bench`` turns it off for itself (its compile
+column is a cold compile).
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import os
+import platform
 import sys
 
 
@@ -36,3 +52,96 @@ def configure() -> None:
     if "xla_cpu_experimental_ynn_fusion_type" not in flags:
         flags += " --xla_cpu_experimental_ynn_fusion_type="
     os.environ["XLA_FLAGS"] = flags.strip()
+    if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+        d = compile_cache_dir()
+        if d is not None:
+            global _OURS
+            _OURS = d
+            os.environ["JAX_COMPILATION_CACHE_DIR"] = d
+            if importlib.util.find_spec("filelock") is not None:    # JAX needs it for a size limit (pinned)
+                os.environ.setdefault("JAX_COMPILATION_CACHE_MAX_SIZE", str(CACHE_MAX_BYTES))
+
+
+CACHE_MAX_BYTES = 2 * 2**30
+_OURS: str | None = None       # the cache folder configure() chose (not one set in the environment before it)
+
+
+def cold_compiles() -> None:
+    """Compile without the persistent cache from here on, in this process and the ones it starts (``cpgjax
+    bench``: its compile column is XLA's compile, not a read from disk).  Only the cache :func:`configure`
+    turned on: a ``JAX_COMPILATION_CACHE_DIR`` set beforehand (by the user, or the test suite's own cache) is
+    kept.  JAX decides at a process's first compile whether it uses the cache, so call it before that."""
+    global _OURS
+    if _OURS is None or os.environ.get("JAX_COMPILATION_CACHE_DIR") != _OURS:
+        return
+    import jax
+
+    jax.config.update("jax_enable_compilation_cache", False)
+    os.environ["CPGJAX_COMPILE_CACHE"] = "0"
+    del os.environ["JAX_COMPILATION_CACHE_DIR"]
+    _OURS = None
+
+
+def compile_cache_dir(environ=None) -> str | None:
+    """The persistent compilation cache's folder for this CPU, made if missing; None when turned off
+    (``CPGJAX_COMPILE_CACHE=0``) or when it cannot be written (a read-only home: the run goes on uncached)."""
+    env = os.environ if environ is None else environ
+    choice = env.get("CPGJAX_COMPILE_CACHE", "")
+    if choice == "0":
+        return None
+    base = choice or os.path.join(env.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+                                  "cpgjax", "xla")
+    cpu = cpu_model()
+    tag = isa(env.get("XLA_FLAGS", "")) + "-" + hashlib.sha256(cpu.encode()).hexdigest()[:12]
+    d = os.path.join(base, tag)
+    try:
+        os.makedirs(d, exist_ok=True)
+    except OSError:
+        return None
+    return d if os.access(d, os.W_OK) else None
+
+
+# The CPU, read without importing JAX (configure() runs before it): both decide a run's numbers bit for bit
+# (docs/reproducibility.md); cpgjax.io.results records them in every run file, compile_cache_dir keys by them.
+
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``; elsewhere what :mod:`platform` knows)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
+# x86-64 vector instruction sets XLA's CPU backend chooses between, narrowest first (--xla_cpu_max_isa)
+ISAS = ("SSE4_2", "AVX", "AVX2", "AVX512")
+_CPU_FLAG = {"SSE4_2": "sse4_2", "AVX": "avx", "AVX2": "avx2", "AVX512": "avx512f"}
+
+
+def isa(xla_flags: str | None = None) -> str:
+    """The widest vector instruction set XLA may use here: the CPU's (``/proc/cpuinfo`` flags), capped by
+    ``--xla_cpu_max_isa=...`` in ``XLA_FLAGS`` (``xla_flags``; default the environment's).  Another
+    architecture than x86-64: its name (``aarch64``)."""
+    flags = os.environ.get("XLA_FLAGS", "") if xla_flags is None else xla_flags
+    cpu: set[str] = set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    cpu = set(line.split(":", 1)[1].split())
+                    break
+    except OSError:
+        pass
+    have = [i for i in ISAS if _CPU_FLAG[i] in cpu]
+    if not have:
+        return platform.machine() or "unknown"
+    best = have[-1]
+    for tok in flags.split():
+        if tok.startswith("--xla_cpu_max_isa="):
+            cap = tok.split("=", 1)[1].upper().replace("AVX512F", "AVX512").replace("AVX512_", "AVX512")
+            if cap in ISAS and ISAS.index(cap) < ISAS.index(best):
+                best = cap
+    return best

@@ -33,6 +33,8 @@ if os.environ.get("CPGJAX_TEST_JAX_CACHE", "1") != "0":
     # a size limit turns on JAX's file lock around each read and write of the cache: the test processes
     # (pytest-xdist's workers, subprocesses) share the folder, and one never reads an entry half written
     os.environ["JAX_COMPILATION_CACHE_MAX_SIZE"] = str(64 * 2**30)
+else:
+    os.environ["CPGJAX_COMPILE_CACHE"] = "0"      # nor the user's own cache (cpgjax/_xla.py)
 
 import cpgjax  # noqa: E402,F401  (first: sets the host device count before a test module imports jax; cpgjax/_xla.py)
 

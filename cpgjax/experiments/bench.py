@@ -86,7 +86,8 @@ def print_table(rows, title=""):
         print(title)
     print(f"{'what':<28}{'batch':>7}{'dt [s]':>9}{'compile [s]':>13}{'wall [s]':>10}"
           f"{'robot-steps/s':>15}{'robot-s/s':>11}")
-    notes = ["compile: the ahead-of-time lower().compile() of the program, timed alone (MuJoCo C: none)",
+    notes = ["compile: the ahead-of-time lower().compile() of the program, timed alone, never a read of the persistent "
+             "cache (MuJoCo C: none)",
              "wall: a call of the compiled program, after a first one (MuJoCo C: after a warm-up)"]
     for r in rows:
         print(f"{r['label']:<28}{r['batch']:>7}{r['dt']:>9.0e}{r['compile_s']:>13.2f}{r['wall_s']:>10.3f}"

@@ -63,55 +63,13 @@ from typing import Any
 import h5py
 import numpy as np
 
+from cpgjax._xla import ISAS, cpu_model, isa  # noqa: F401  (re-exported: the machine a run records)
 from cpgjax.errors import ResultsError
 from cpgjax.io import runlock
 
 FORMAT = "cpgjax-run"
 FORMAT_VERSION = 1
 ROW_DATASETS = ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate", "wall_time")
-
-
-def cpu_model() -> str:
-    """The CPU's model name (``/proc/cpuinfo``; elsewhere what :mod:`platform` knows)."""
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine() or "unknown"
-
-
-# x86-64 vector instruction sets XLA's CPU backend chooses between, narrowest first (--xla_cpu_max_isa)
-ISAS = ("SSE4_2", "AVX", "AVX2", "AVX512")
-_CPU_FLAG = {"SSE4_2": "sse4_2", "AVX": "avx", "AVX2": "avx2", "AVX512": "avx512f"}
-
-
-def isa(xla_flags: str | None = None) -> str:
-    """The widest vector instruction set XLA may use here: the CPU's (``/proc/cpuinfo`` flags), capped by
-    ``--xla_cpu_max_isa=...`` in ``XLA_FLAGS`` (``xla_flags``; default the environment's).  Another
-    architecture than x86-64: its name (``aarch64``)."""
-    flags = os.environ.get("XLA_FLAGS", "") if xla_flags is None else xla_flags
-    cpu: set[str] = set()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("flags"):
-                    cpu = set(line.split(":", 1)[1].split())
-                    break
-    except OSError:
-        pass
-    have = [i for i in ISAS if _CPU_FLAG[i] in cpu]
-    if not have:
-        return platform.machine() or "unknown"
-    best = have[-1]
-    for tok in flags.split():
-        if tok.startswith("--xla_cpu_max_isa="):
-            cap = tok.split("=", 1)[1].upper().replace("AVX512F", "AVX512").replace("AVX512_", "AVX512")
-            if cap in ISAS and ISAS.index(cap) < ISAS.index(best):
-                best = cap
-    return best
 
 
 def _version(dist: str) -> str:
