@@ -17,17 +17,6 @@ adapt like animals*, Nature 2015; :mod:`cpgjax.optim.mapelites`).  Two descripto
   speed ``v`` the turning rate is exactly ``v / r`` and the speed ``v`` to ``O(dpsi^2 / 24)`` (each
   step's chord is parallel to the tangent at the mid-angle).
 
-Besides them, for Intelligent Trial and Error's Gaussian process (:mod:`cpgjax.experiments.adapt`, ``--space
-behaviour``), the rollout accumulates what the intact robot does with its body and its legs, none of it a grid
-dimension:
-
-- **load share of each leg**: the leg's share of the ground's vertical load, the contact law's spring part
-  ``A d`` (eq. 3.7: ``d`` the depth of each of its foot's vertices below the terrain), summed over the log
-  samples and divided by the sum over every foot (0 for every leg if no foot ever touched).  A robot standing
-  still on four like feet carries ~1/4 on each.
-- **pitch and roll**: the mean over the log samples of the angles of the tracked body's forward axis (body +y;
-  pitch, + = nose up) and of its right axis (body +x; roll, + = right side up) above the ground plane (rad).
-
 The sums live in a small dict (:func:`init`, :func:`update`, :func:`finish`): pure functions of the
 samples, so that a test can feed them a hand-made episode as well as a simulated one.
 """
@@ -101,39 +90,22 @@ def init(model, x0, R0, n_legs: int):
     B = x0.shape[-1]
     z = jnp.zeros((B,), x0.dtype)
     return {"touch": jnp.zeros((n_legs, B), x0.dtype), "psi": heading(model, R0), "turn": z, "advance": z,
-            "xy": x0[:2, model.track], "load": jnp.zeros((n_legs, B), x0.dtype), "pitch": z, "roll": z}
+            "xy": x0[:2, model.track]}
 
 
-def posture(model, R):
-    """Pitch and roll [B] of the tracked body (rad; module docstring) from the rotations ``R`` [3, 3, nb, B]."""
-    Rt = R[:, :, model.track]
-    return (jnp.arcsin(jnp.clip(Rt[2, 1], -1.0, 1.0)), jnp.arcsin(jnp.clip(Rt[2, 0], -1.0, 1.0)))
-
-
-def update(acc, feet, down, psi, xy, depth=None, tilt=None):
+def update(acc, feet, down, psi, xy):
     """One log sample: ``down`` [nc, B] which contact vertices touch, ``psi`` [B] the heading,
-    ``xy`` [2, B] the tracked body's CM in the ground plane; ``depth`` [nc, B] each vertex's depth below the
-    terrain (the load's sums; None: not summed), ``tilt = (pitch, roll)`` [B] (:func:`posture`; None: not
-    summed)."""
+    ``xy`` [2, B] the tracked body's CM in the ground plane."""
     touch = (jnp.asarray(feet, down.dtype) @ down) > 0 if feet.shape[0] else jnp.zeros((0,) + down.shape[1:], bool)
-    load, pitch, roll = acc["load"], acc["pitch"], acc["roll"]
-    if depth is not None and feet.shape[0]:
-        load = load + jnp.asarray(feet, depth.dtype) @ jnp.maximum(depth, 0.0)
-    if tilt is not None:
-        pitch, roll = pitch + tilt[0], roll + tilt[1]
     d = psi - acc["psi"]
     d = jnp.arctan2(jnp.sin(d), jnp.cos(d))          # wrapped to (-pi, pi]: samples are far apart less than pi
     mid = acc["psi"] + 0.5 * d
     step = xy - acc["xy"]
     adv = -jnp.sin(mid) * step[0] + jnp.cos(mid) * step[1]
     return {"touch": acc["touch"] + touch, "psi": psi, "turn": acc["turn"] + d,
-            "advance": acc["advance"] + adv, "xy": xy, "load": load, "pitch": pitch, "roll": roll}
+            "advance": acc["advance"] + adv, "xy": xy}
 
 
 def finish(acc, samples: int, T: float):
-    """``{"duty": [L, B], "speed": [B], "turn": [B], "load": [L, B], "pitch": [B], "roll": [B]}`` from the sums
-    of ``samples`` log samples over ``T`` s (``load``: each leg's share, module docstring)."""
-    total = acc["load"].sum(0)
-    share = jnp.where(total > 0, acc["load"] / jnp.where(total > 0, total, 1.0), 0.0)
-    return {"duty": acc["touch"] / samples, "speed": acc["advance"] / T, "turn": acc["turn"] / T,
-            "load": share, "pitch": acc["pitch"] / samples, "roll": acc["roll"] / samples}
+    """``{"duty": [L, B], "speed": [B], "turn": [B]}`` from the sums of ``samples`` log samples over ``T`` s."""
+    return {"duty": acc["touch"] / samples, "speed": acc["advance"] / T, "turn": acc["turn"] / T}

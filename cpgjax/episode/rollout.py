@@ -103,8 +103,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     and ``proj_undefined`` (the number of samples with fewer than three vertices down).
     With ``descriptors=True`` (:mod:`cpgjax.episode.descriptors`, accumulated at every log sample) also
     ``duty`` [legs, B] (each leg's duty factor), ``heading_speed`` and ``turn`` [B] (forward speed along the
-    heading, m/s, and turning rate, rad/s), ``load`` [legs, B] (each leg's share of the vertical load),
-    ``pitch`` and ``roll`` [B] (the body's mean angles, rad).
+    heading, m/s, and turning rate, rad/s).
     """
     inner, outer = schedule(model, time, log_rate)
     T = inner * outer * model.dt
@@ -160,9 +159,11 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
                        proj_min=jnp.minimum(prev["proj_min"], jnp.where(defined, proj_t, jnp.inf)))
             out = (out, {"S": S_t, "proj": proj_t})
         if descriptors:
-            vdepth = -p[2, model.ct_pt] if model.terrain.flat else zg - p[2, model.ct_pt]
-            acc["bd"] = bd.update(prev["bd"], feet, vdepth > 0, bd.heading(model, R), s_new.x[:2, model.track],
-                                  depth=vdepth, tilt=bd.posture(model, R))
+            if model.terrain.flat:
+                touching = p[2, model.ct_pt] < 0
+            else:
+                touching = zg - p[2, model.ct_pt] > 0
+            acc["bd"] = bd.update(prev["bd"], feet, touching, bd.heading(model, R), s_new.x[:2, model.track])
         return (s_new, acc), out
 
     def sample(s, R):
@@ -204,8 +205,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
                    proj_min=jnp.where(n > 0, acc["proj_min"], jnp.nan), proj_undefined=outer - n)
     if descriptors:
         d = bd.finish(acc["bd"], outer, T)
-        res.update(duty=d["duty"], heading_speed=d["speed"], turn=d["turn"], load=d["load"], pitch=d["pitch"],
-                   roll=d["roll"])
+        res.update(duty=d["duty"], heading_speed=d["speed"], turn=d["turn"])
     if record:   # the first sample is the initial state, at t = 0
         res["traj"] = jax.tree.map(lambda a0, a: jnp.concatenate([a0[None], a]), sample(s0, quat_to_mat(s0.q)), traj)
     return res
