@@ -142,11 +142,12 @@ def register(subparsers: Any) -> None:
                         "trials (a damage that lowers every gait is one shift, not a penalty on the tried "
                         "elites' neighbours); --no-offset: Cully et al.'s prior mean, the repertoire's fitness "
                         f"(default {'--offset' if a.offset else '--no-offset'})")
-    p.add_argument("--space", choices=("descriptor", "genome"), default="descriptor",
-                   help="the GP's space: descriptor (Cully et al.: the repertoire's descriptor, scaled to the grid) "
-                        "or genome (the elites' CPG coefficients, each scaled by its sd over the elites; the length "
-                        "scale and noise fitted by marginal likelihood to the repertoire's intact fitness unless "
-                        "--rho or --noise is given) (default descriptor)")
+    p.add_argument("--space", choices=("descriptor", "genome", "both"), default="descriptor",
+                   help="the GP's space: descriptor (Cully et al.: the repertoire's descriptor, scaled to the grid), "
+                        "genome (the elites' CPG coefficients, each scaled by its sd over the elites) or both (the "
+                        "two, standardised, weighing the same); genome and both fit the length scale and noise by "
+                        "marginal likelihood to the repertoire's intact fitness unless --rho or --noise is given "
+                        "(default descriptor)")
     p.add_argument("--out", default=None, metavar="TRIALS.json", help="write the trials as JSON")
     p.set_defaults(func=cmd_adapt)
 

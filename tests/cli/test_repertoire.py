@@ -46,7 +46,7 @@ def test_adapt_takes_the_offset_option(duty, tmp_path):
         assert r["config"]["offset"] is want and 1 <= len(r["trials"]) <= 2
 
 
-def test_adapt_takes_the_space_option_and_fits_rho_in_the_genome_space_unless_given(duty, tmp_path):
+def test_adapt_takes_the_space_option_and_fits_rho_outside_the_descriptor_space_unless_given(duty, tmp_path):
     from cpgjax.experiments.adapt import FIT_NOISES, FIT_RHOS
 
     out = tmp_path / "g.json"
@@ -58,6 +58,10 @@ def test_adapt_takes_the_space_option_and_fits_rho_in_the_genome_space_unless_gi
                  "genome", "--rho", "0.77", "--out", str(out)]) == 0
     r = json.loads(out.read_text())
     assert r["config"]["rho"] == 0.77 and r["config"]["noise"] == 1e-3 and 1 <= len(r["trials"]) <= 2
+    assert main(["adapt", MODEL, "--repertoire", str(duty), "--damage", "leg=AR", "--trials", "2", "--space",
+                 "both", "--out", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["space"] == "both" and r["config"]["rho"] in FIT_RHOS
 
 
 @pytest.mark.slow

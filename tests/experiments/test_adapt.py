@@ -42,6 +42,22 @@ def test_the_genome_space_scales_each_gene_by_its_sd_over_the_elites():
     np.testing.assert_allclose(x, [[-2 / np.sqrt(8 / 3), 0], [0, 0], [2 / np.sqrt(8 / 3), 0]], rtol=1e-12)
 
 
+def test_the_joint_space_weighs_the_genome_and_the_descriptor_the_same():
+    """Four genes and one descriptor dimension: the genes standardised (sd 1), the descriptor standardised and
+    scaled by sqrt(4 / 1) = 2, so that each group's variance sums to 4."""
+    import numpy as np
+
+    from cpgjax.experiments.adapt import joint_space
+
+    rng = np.random.default_rng(2)
+    g, d = rng.normal(3.0, 5.0, (50, 2, 2)), rng.uniform(0.2, 0.4, (50, 1))
+    x = joint_space(g, d)
+    assert x.shape == (50, 5)
+    np.testing.assert_allclose(x.std(0), [1, 1, 1, 1, 2], rtol=1e-12)
+    np.testing.assert_allclose(x[:, 4], 2 * (d[:, 0] - d.mean()) / d.std(), rtol=1e-12)
+    np.testing.assert_allclose((x[:, :4] ** 2).sum(1).mean(), (x[:, 4:] ** 2).sum(1).mean(), rtol=1e-12)
+
+
 @pytest.mark.parametrize("rho", [0.5, 4.0])
 def test_the_fitted_length_scale_is_the_one_the_data_were_drawn_with(rho):
     """y drawn from the Matérn-5/2 GP of length scale rho (noise 1e-2 of the variance) over 300 points in
@@ -82,5 +98,7 @@ def test_search_space_fits_in_the_genome_space_only_and_keeps_the_given_settings
     assert c == cfg and x.shape == (20, 6)
     x, c = search_space(rep, idx, "genome", cfg)
     assert c.noise in (1e-3, 0.01, 0.03, 0.1, 0.3) and c.rho >= 1 and c.kappa == cfg.kappa
+    x, c = search_space(rep, idx, "both", cfg, fit=False)
+    assert c == cfg and x.shape == (20, 8)
     with pytest.raises(ValueError, match="unknown space"):
         search_space(rep, idx, "other", cfg)
