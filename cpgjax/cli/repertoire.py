@@ -142,6 +142,12 @@ def register(subparsers: Any) -> None:
                         "trials (a damage that lowers every gait is one shift, not a penalty on the tried "
                         "elites' neighbours); --no-offset: Cully et al.'s prior mean, the repertoire's fitness "
                         f"(default {'--offset' if a.offset else '--no-offset'})")
+    p.add_argument("--space", choices=("descriptor", "genome", "both"), default="descriptor",
+                   help="the GP's space: descriptor (Cully et al.: the repertoire's descriptor, scaled to the grid), "
+                        "genome (the elites' CPG coefficients, each scaled by its sd over the elites) or both (the "
+                        "two, standardised, weighing the same); genome and both fit the length scale and noise by "
+                        "marginal likelihood to the repertoire's intact fitness unless --rho or --noise is given "
+                        "(default descriptor)")
     p.add_argument("--out", default=None, metavar="TRIALS.json", help="write the trials as JSON")
     p.set_defaults(func=cmd_adapt)
 
@@ -232,11 +238,13 @@ def cmd_adapt(args: argparse.Namespace) -> int:
         return _study(args, cfg)
     if len(args.repertoire) > 1 or len(args.damage) > 1:
         raise ValueError("several --repertoire or --damage: add --study (one adaptation takes one of each)")
-    r = adapt(args.model, args.repertoire[0], args.damage[0], cfg)
+    r = adapt(args.model, args.repertoire[0], args.damage[0], cfg, space=args.space,
+              fit=args.rho is None and args.noise is None)
     for i, t in enumerate(r["trials"]):
         print(f"trial {i + 1:>2}: cell {t['cell']:>6}  predicted {t['predicted']:+.4f}  observed {t['fitness']:+.4f}")
     print(f"{r['damage']}: best {r['best_fitness']:+.4f} (cell {r['best_cell']}) after {len(r['trials'])} trials; "
-          f"the repertoire's best on the intact robot {r['prior_best']:+.4f}; stopped: {r['stop']}")
+          f"the repertoire's best on the intact robot {r['prior_best']:+.4f}; stopped: {r['stop']}; the GP over the "
+          f"{r['space']} (rho {r['config']['rho']:g}, noise {r['config']['noise']:g})")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)
@@ -247,7 +255,8 @@ def _study(args: argparse.Namespace, cfg) -> int:
     from cpgjax.experiments.adapt import study
 
     r = study(args.model, args.repertoire, args.damage, level=args.level, trials=args.trials or 50,
-              ga_generations=args.ga_generations, progress=True, cfg=cfg)
+              ga_generations=args.ga_generations, progress=True, cfg=cfg, space=args.space,
+              fit=args.rho is None and args.noise is None)
     fmt = lambda v: "-" if v is None else str(v)  # noqa: E731
     print(f"{'damage':<22} {'seed':>4} {'elites':>6} {'R':>8} {'IT&E trials':>11} {'GA evals':>8}   "
           "IT&E's own stop: trials, best/R")

@@ -46,6 +46,24 @@ def test_adapt_takes_the_offset_option(duty, tmp_path):
         assert r["config"]["offset"] is want and 1 <= len(r["trials"]) <= 2
 
 
+def test_adapt_takes_the_space_option_and_fits_rho_outside_the_descriptor_space_unless_given(duty, tmp_path):
+    from cpgjax.experiments.adapt import FIT_NOISES, FIT_RHOS
+
+    out = tmp_path / "g.json"
+    assert main(["adapt", MODEL, "--repertoire", str(duty), "--damage", "leg=AR", "--trials", "2", "--space",
+                 "genome", "--out", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["space"] == "genome" and r["config"]["rho"] in FIT_RHOS and r["config"]["noise"] in FIT_NOISES
+    assert main(["adapt", MODEL, "--repertoire", str(duty), "--damage", "leg=AR", "--trials", "2", "--space",
+                 "genome", "--rho", "0.77", "--out", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["config"]["rho"] == 0.77 and r["config"]["noise"] == 1e-3 and 1 <= len(r["trials"]) <= 2
+    assert main(["adapt", MODEL, "--repertoire", str(duty), "--damage", "leg=AR", "--trials", "2", "--space",
+                 "both", "--out", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert r["space"] == "both" and r["config"]["rho"] in FIT_RHOS
+
+
 @pytest.mark.slow
 def test_the_study_compares_ite_with_the_ga_from_scratch(duty, tmp_path, capsys):
     capsys.readouterr()
