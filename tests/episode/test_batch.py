@@ -16,3 +16,16 @@ def test_a_batch_is_whole_simd_vectors_and_on_exact_joints_a_power_of_two_of_the
     assert lanes(SimpleNamespace(pipeline="springs"), n) == springs
     assert lanes(SimpleNamespace(pipeline="exact"), n) == exact
     assert exact % LANES == 0 and (exact // LANES) & (exact // LANES - 1) == 0
+
+
+@pytest.mark.parametrize("per_dev, chunk, springs, exact", [
+    (600, 208, 208, 128),     # make thesis's sweep: 5 chunks of 128 (640 robots), not 3 of 256 (768)
+    (10, 256, 16, 16), (128, 256, 128, 128), (256, 256, 256, 256), (300, 256, 256, 128),
+    (520, 256, 256, 128), (1000, 256, 256, 256), (40, 256, 48, 64), (600, 64, 64, 64),
+])
+def test_a_device_runs_its_robots_in_chunks_that_pad_them_little(per_dev, chunk, springs, exact):
+    from cpgjax.episode.batch import chunk_width
+
+    assert chunk_width(SimpleNamespace(pipeline="springs"), per_dev, chunk) == springs
+    w = chunk_width(SimpleNamespace(pipeline="exact"), per_dev, chunk)
+    assert w == exact and (w // LANES) & (w // LANES - 1) == 0      # still a power of two of vectors
