@@ -51,6 +51,7 @@ def bounds(text: str) -> tuple[tuple[float, float], ...]:
 
 def register(subparsers: Any) -> None:
     from cpgjax.episode.descriptors import DESCRIPTORS
+    from cpgjax.optim.ite import SPACES
     from cpgjax.optim.mapelites import METHODS, MEConfig
 
     d = MEConfig()
@@ -142,7 +143,7 @@ def register(subparsers: Any) -> None:
                         "trials (a damage that lowers every gait is one shift, not a penalty on the tried "
                         "elites' neighbours); --no-offset: Cully et al.'s prior mean, the repertoire's fitness "
                         f"(default {'--offset' if a.offset else '--no-offset'})")
-    p.add_argument("--space", choices=("descriptor", "genome", "both"), default="descriptor",
+    p.add_argument("--space", choices=SPACES, default="descriptor",
                    help="the GP's space: descriptor (Cully et al.: the repertoire's descriptor, scaled to the grid), "
                         "genome (the elites' CPG coefficients, each scaled by its sd over the elites) or both (the "
                         "two, standardised, weighing the same); genome and both fit the length scale and noise by "

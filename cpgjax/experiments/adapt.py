@@ -47,7 +47,7 @@ from cpgjax.errors import ResultsError
 from cpgjax.experiments.repertoire import Repertoire, read_repertoire
 from cpgjax.io.wl import load_wl
 from cpgjax.optim.behaviour import behaviour_problem
-from cpgjax.optim.ite import ITEConfig, ite
+from cpgjax.optim.ite import SPACES, ITEConfig, ite
 
 ADAPT_DEFAULTS = ITEConfig()
 
@@ -71,7 +71,6 @@ def normalised(rep: Repertoire, idx) -> np.ndarray:
     return (rep.descriptors[idx].astype(np.float64) - lo) / (hi - lo)
 
 
-SPACES = ("descriptor", "genome", "both")
 FIT_RHOS = (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 11.0, 16.0)
 FIT_NOISES = (1e-3, 0.01, 0.03, 0.1, 0.3)
 

@@ -49,6 +49,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
+# The spaces IT&E's GP may run in (cpgjax.experiments.adapt.search_space: the descriptor, Cully et al.'s; the
+# elites' genomes; both); here, where the CLI reads them without importing the experiment.
+SPACES = ("descriptor", "genome", "both")
+
 
 @dataclass(frozen=True)
 class ITEConfig:
