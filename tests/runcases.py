@@ -16,3 +16,15 @@ def same_rows(a, b, n=None):
         assert set(ga_) == set(gb)
         for k in ga_:
             np.testing.assert_array_equal(ga_[k][:n], gb[k][:n], err_msg=f"{group}/{k}")
+
+
+def other_machine() -> dict[str, str]:
+    """A machine that differs from this one in every field a run records (CPU, vector ISA, every version),
+    whatever this host is: a faked machine built from the real one, never a named CPU that some host has."""
+    from cpgjax.io.results import ISAS, machine
+
+    here = machine()
+    other = {k: f"{v}+other" for k, v in here.items()}
+    other["cpu"] = f"Other CPU (not {here.get('cpu', 'this one')})"
+    other["isa"] = next(i for i in ISAS if i != here.get("isa"))
+    return other

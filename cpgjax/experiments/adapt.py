@@ -149,10 +149,12 @@ def adapt(model: str, repertoire: str, damage: str, cfg: ITEConfig = ADAPT_DEFAU
 
     x, cfg = search_space(rep, idx, space, cfg, fit=fit)
     r = ite(x, rep.fitness[idx], trial, cfg)
-    trials = [{"cell": int(idx[t["index"]]), "predicted": t["predicted"], "fitness": t["fitness"]}
-              for t in r["trials"]]
+    trials = [{"cell": int(idx[t["index"]]), "descriptor": [float(v) for v in rep.descriptors[idx[t["index"]]]],
+               "predicted": t["predicted"], "fitness": t["fitness"]} for t in r["trials"]]
     return {"damage": problem.meta["damage"], "repertoire": rep.path, "trials": trials,
             "best_cell": int(idx[r["best_index"]]), "best_fitness": r["best_fitness"],
+            "descriptor_names": list(rep.grid.names),
+            "best_descriptor": [float(v) for v in rep.descriptors[idx[r["best_index"]]]],
             "prior_best": float(rep.fitness[idx].max()), "stop": r["stop"], "space": space,
             "config": dataclasses.asdict(cfg)}
 

@@ -116,3 +116,15 @@ def test_a_sweeps_runs_can_be_summarised_per_setting(runs, capsys):
     assert cli.main(["transfer", *files, "--replays", "1", "--by", "cell", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary[runs.name]["runs"] == 2
+
+
+def test_a_run_is_named_by_its_sweep_cell_and_seed_or_else_by_its_file():
+    def replay(path, cell, seed):
+        r = {"fitness": 0.1, "speed": 0.1, "fallen": False}
+        j = {"mean": 0.1, "sd": 0.0, "falls": 0}
+        return transfer.Replay(run=path, evaluation="thesis", cell=cell, seed=seed, fitness_in_run=0.1, ours=r,
+                               mujoco=r, ours_jit=j, mujoco_jit=j)
+
+    assert replay("runs/thesis/g0.01-p4/s3.h5", "g0.01-p4", 3).label == "g0.01-p4/s3"
+    assert replay("runs/quickstart.h5", "runs", 0).label == "quickstart"        # not "runs/s0"
+    assert replay("s7.h5", "", 0).label == "s7"
