@@ -101,6 +101,17 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
                                 "(1, 5, 15 min)")
 
 
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def tiny_runs(tmp_path_factory):
+    """The suite's shared tiny GA run files (tests/runcases.py: TinyRuns), made on first use in this process."""
+    from runcases import TinyRuns
+
+    return TinyRuns(tmp_path_factory.mktemp("tiny-runs"))
+
+
 def pytest_unconfigure(config):
     if _CACHE_DIR:
         shutil.rmtree(_CACHE_DIR, ignore_errors=True)

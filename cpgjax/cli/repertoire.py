@@ -110,7 +110,7 @@ def register(subparsers: Any) -> None:
                     "observes through each trial's fitness.")
     o.model_argument(p, help="robot description (.wl): the repertoire's")
     p.add_argument("--repertoire", required=True, nargs="+", metavar="REP.h5",
-                   help="a cpgjax repertoire file; several (one per seed): the study of docs/repertoire.md")
+                   help="a cpgjax repertoire file; several (one per seed): the study of docs/results/repertoire.md")
     p.add_argument("--damage", required=True, action="append", metavar="SPEC",
                    help="leg=AR | locked=KneeAR | weak=HipPL:0.3, several joined by ',' (none: intact); "
                         "repeat the option for a study over damages")
