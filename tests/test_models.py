@@ -85,8 +85,10 @@ def test_every_shipped_controller_has_a_header_that_says_how_it_was_made_and_wha
             assert f"--ctl models/{name}" in args, f"{path}: a header line replays another controller: {args}"
 
 
+# The exact pipeline's lines compile a program of their own (15-25 s of CPU each): marked slow (make test-slow).
 @pytest.mark.parametrize("path,args,claim", [
-    pytest.param(p, a, c, id=f"{os.path.basename(p)}:{' '.join(a.split()[3:]) or 'default'}")
+    pytest.param(p, a, c, id=f"{os.path.basename(p)}:{' '.join(a.split()[3:]) or 'default'}",
+                 marks=[pytest.mark.slow] if "--pipeline exact" in a else [])
     for p in CONTROLLERS for a, c in header_claims(p)])
 def test_each_shipped_controller_does_what_its_header_says(path, args, claim, capsys, monkeypatch):
     monkeypatch.chdir(ROOT)

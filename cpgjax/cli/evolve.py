@@ -22,7 +22,7 @@ GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossov
 SEARCH_OPTIONS = ("method", "samples", "batch", "M", "width_end", "seed", "chunk")
 ES_OPTIONS = ("method", "samples", "population", "sigma", "lr", "seed", "chunk")
 ES_METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")   # cpgjax.optim.es.METHODS (no import at start-up)
-PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline")
+PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline", "start")
 
 
 def register(subparsers: Any) -> None:
@@ -43,6 +43,10 @@ def register(subparsers: Any) -> None:
                        help="score each controller as the mean of R episodes with genes jittered by 1e-3 "
                             "(default 1, the thesis; see docs/evolution.md, 'A noisy fitness')")
         o.evaluation_options(p)
+        p.add_argument("--start", default=None, metavar="CTL",
+                       help="start the search from this controller (.ctl) instead of the thesis's one 0.5 Hz "
+                            "sinusoid per joint (the GA moves each of its genes by --init-spread); recorded in the "
+                            "run file")
         o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
         o.seed_option(p, None, shown=d.seed)
         p.add_argument("--chunk", type=o.count, default=None,

@@ -28,7 +28,8 @@ EVALUATIONS = ("thesis", "robust")
 
 def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float | None = None, replicas: int | None = None, chunk: int | None = None,
-                 evaluation: str | None = None, perturb: dict | None = None, pipeline: str | None = None) -> Problem:
+                 evaluation: str | None = None, perturb: dict | None = None, pipeline: str | None = None,
+                 start: str | None = None) -> Problem:
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
 
     ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
@@ -38,6 +39,8 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
     ranges ``perturb`` overrides, e.g. ``{"replicas": 8}``).  ``pipeline``: the physics pipeline
     (``"springs"`` or ``"exact"``, :data:`cpgjax.sim.model.PIPELINES`; None: the model file's ``Pipeline``, else
     springs); the one the model runs on is recorded in the meta (``pipeline``), so that a resume cannot change it.
+    ``start``: a `.ctl` controller the search starts from instead of the thesis's sinusoids (the problem's base
+    genome; the GA moves each of its genes by its initial spread); recorded in the meta (``start``).
     """
     evaluation = evaluation or "thesis"
     if evaluation not in EVALUATIONS:
@@ -58,8 +61,26 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
     if robust is not None and model.startswith("analytic:"):
         raise ValueError(f"{model}: the robust evaluation needs a simulated model (.wl)")
     cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas, "evaluation": evaluation,
-           "perturb": perturb or None, "pipeline": pipeline}
-    return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
+           "perturb": perturb or None, "pipeline": pipeline, "start": start}
+    meta = {**problem.meta, "cli_problem_args": json.dumps(cli)}
+    if start is not None:
+        base = start_genome(start, problem)
+        meta["start"] = json.dumps({"path": str(start), "genome": [float(v) for v in base]})
+        problem = dataclasses.replace(problem, base_genome=base)
+    return dataclasses.replace(problem, meta=meta)
+
+
+def start_genome(path: str, problem: Problem) -> np.ndarray:
+    """The genome of the `.ctl` controller at ``path`` for ``problem`` (its DOFs and harmonics; clipped to the
+    search box, which a hand-written controller may leave)."""
+    from cpgjax.io.ctl import read_ctl
+
+    n_dof, harmonics = problem.meta.get("n_dof"), problem.meta.get("harmonics")
+    if n_dof is None or harmonics is None:
+        raise ValueError(f"--start {path}: a starting controller needs a simulated model (.wl)")
+    c = read_ctl(path, n_dof=int(n_dof), harmonics=int(harmonics))
+    g = np.asarray(c.coeffs, np.float32).reshape(-1)
+    return np.clip(g, problem.lower, problem.upper)
 
 
 def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,
