@@ -115,8 +115,8 @@ def step_cost(model, batch: int = 256) -> dict:
     import jax
     import jax.numpy as jnp
 
+    from cpgjax.sim.springs.step import step
     from cpgjax.sim.state import initial_state
-    from cpgjax.sim.step import step
 
     s = initial_state(model, batch)
     ctrl = (jnp.zeros((model.n_ctrl, batch)), jnp.zeros((model.n_ctrl, batch)))
@@ -187,7 +187,7 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
         finally:
             rotation.POLY_ATAN2 = default
         if model.pipeline == "exact":
-            from cpgjax.sim import articulated
+            from cpgjax.sim.exact import step as articulated
 
             articulated.MATERIALIZE = False
             try:

@@ -8,8 +8,8 @@ files or devices (see docs/architecture.md).
 
 from cpgjax.sim.description import Description, TerrainDef
 from cpgjax.sim.model import Model, build_model
+from cpgjax.sim.springs.step import step
 from cpgjax.sim.state import State, initial_state
-from cpgjax.sim.step import step
 from cpgjax.sim.terrain import Terrain, make_terrain
 
 __all__ = ["Description", "Model", "State", "Terrain", "TerrainDef", "build_model", "initial_state",

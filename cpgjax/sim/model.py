@@ -104,7 +104,7 @@ class Model:
     description: Description | None = field(default=None, repr=False)
     limit_k: float = LIMIT_STIFFNESS
     limit_c: float = LIMIT_DAMPING
-    pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.step.step` dispatches)
+    pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.springs.step.step` dispatches)
     tree: object = field(default=None, repr=False)  # the kinematic tree of exact joints (`sim.tree.Tree`)
     levels: object = field(default=None, repr=False)  # the same by depth (`sim.tree.Levels`)
 
@@ -141,7 +141,7 @@ class Model:
 
         new = dataclasses.replace(self, **changes)
         if new.pipeline == "exact" and (new.tree is None or "pipeline" in changes):
-            from cpgjax.sim.tree import build_levels, build_tree
+            from cpgjax.sim.exact.tree import build_levels, build_tree
 
             if new.description is None:
                 raise ValueError("a Model needs its Description to run on exact joints")
@@ -407,7 +407,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,
     )
     if pipe == "exact":
-        from cpgjax.sim.tree import build_levels, build_tree
+        from cpgjax.sim.exact.tree import build_levels, build_tree
 
         model.tree = build_tree(model, desc)
         model.levels = build_levels(model.tree)

@@ -21,7 +21,7 @@ it).  Not adopted; kept so that the measurement can be rerun:
 
     .venv/bin/python docs/experiments/coupled_implicit_step.py models/quadruped-stiff.wl 2e-3
 
-which runs the hand-written trot for 10 s with this step in place of `cpgjax.sim.step.step`.
+which runs the hand-written trot for 10 s with this step in place of `cpgjax.sim.springs.step.step`.
 """
 
 
@@ -265,7 +265,7 @@ def _body_sums(x, groups, nb, axis):
 
 
 def step_implicit(model, state, ctrl, var=None):
-    from cpgjax.sim.step import point_kinematics, sum_contacts_onto_bodies, sum_onto_bodies
+    from cpgjax.sim.springs.step import point_kinematics, sum_contacts_onto_bodies, sum_onto_bodies
 
     dt = model.dt
     P = plan(model)

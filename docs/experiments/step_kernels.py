@@ -20,8 +20,8 @@ import jax
 import jax.numpy as jnp
 
 from cpgjax.io.wl import load_model
+from cpgjax.sim.springs.step import step
 from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
 
 FREE = {"parameter", "get-tuple-element", "tuple", "constant", "bitcast"}
 

@@ -16,9 +16,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.io.wl import load_model
-from cpgjax.sim import articulated
+from cpgjax.sim.exact import step as articulated
+from cpgjax.sim.springs.step import step
 from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
 
 
 def rate(model, batch, steps):

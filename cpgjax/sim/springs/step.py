@@ -12,12 +12,12 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim import articulated
-from cpgjax.sim.bodies import accelerations, force_accelerations, integrate, torque_accelerations
 from cpgjax.sim.contact import contact_body_ranges, contact_forces
+from cpgjax.sim.exact import step as articulated
 from cpgjax.sim.joints import joint_angles, limit_torques, pivot_spring_forces
 from cpgjax.sim.rotation import cross, dot, matvec, quat_to_mat
 from cpgjax.sim.servo import servo_pi, servo_torques
+from cpgjax.sim.springs.bodies import accelerations, force_accelerations, integrate, torque_accelerations
 
 
 def point_kinematics(model, state, R):

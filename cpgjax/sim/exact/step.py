@@ -33,10 +33,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.sim.contact import bristle, contact_frame, friction, trail_anchor
+from cpgjax.sim.exact.tree import _slots
 from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import cross, dot, quat_integrate, quat_to_mat
 from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
-from cpgjax.sim.tree import _slots
 
 # ---------------------------------------------------------------------------------------------------------
 # static helpers on the item axis (the one before the batch axis)

@@ -11,9 +11,9 @@ from simcases import box, chain, double_pendulum, energy, model_from, pendulum, 
 
 from cpgjax.episode.batch import simulate
 from cpgjax.errors import DescriptionError
+from cpgjax.sim.exact.tree import build_levels, build_tree
+from cpgjax.sim.springs.step import step
 from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
-from cpgjax.sim.tree import build_levels, build_tree
 
 
 def test_pendulum_has_the_small_angle_period_of_its_inertia_at_a_2_ms_step():

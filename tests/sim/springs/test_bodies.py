@@ -7,8 +7,8 @@ from simcases import box, chain, energy
 
 from cpgjax.episode.batch import simulate
 from cpgjax.io.logs import quat_to_mat_np
+from cpgjax.sim.springs.step import step
 from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
 
 
 def test_free_fall_matches_z0_minus_half_g_t2():
