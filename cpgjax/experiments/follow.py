@@ -48,8 +48,8 @@ from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.errors import ResultsError
 from cpgjax.experiments.repertoire import read_repertoire
 from cpgjax.io.wl import load_model
+from cpgjax.sim.pipeline import step
 from cpgjax.sim.rotation import quat_to_mat
-from cpgjax.sim.springs.step import step
 from cpgjax.sim.state import initial_state, sim_time
 
 PATHS = ("line", "square", "circle", "figure8", "points")

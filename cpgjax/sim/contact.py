@@ -165,7 +165,7 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
 
 def contact_law(model, depth, fr, cp, anchor, vs, k, carry_n, carry_t=None, var=None):
     """Eq. 3.7's ground and the friction bristle, solved implicitly at each touching vertex: the one contact law
-    of both pipelines (the springs' free bodies, :func:`contact_forces`; exact joints, `sim.articulated`).
+    of both pipelines (the springs' free bodies, :func:`contact_forces`; exact joints, `sim.exact.contact`).
 
     ``depth`` [nc, B] and the terrain frame ``fr`` under the vertices at ``cp`` [3, nc, B]; ``anchor`` [3, nc, B]
     the bristles' anchors; ``vs = (v_n, v_1, v_2)``: each vertex's velocity at the end of the step under every

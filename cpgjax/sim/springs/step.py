@@ -1,4 +1,4 @@
-"""One simulation step of a batch of robots: ``step(model, state, ctrl) -> state`` (Ch. 3.4.1).
+"""One step of the thesis's pipeline: ``step(model, state, ctrl) -> state`` (Ch. 3.4.1).
 
 The stages follow the thesis's dynamics engine (Ch. 3.4.1, Appendix B): pivot positions
 and velocities, joint penalties, servo torques, gravity; then the ground collisions, solved
@@ -13,18 +13,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.sim.contact import contact_body_ranges, contact_forces
-from cpgjax.sim.exact import step as articulated
-from cpgjax.sim.joints import joint_angles, limit_torques, pivot_spring_forces
-from cpgjax.sim.rotation import cross, dot, matvec, quat_to_mat
+from cpgjax.sim.joints import joint_angles, limit_torques
+from cpgjax.sim.rotation import cross, dot, quat_to_mat
 from cpgjax.sim.servo import servo_pi, servo_torques
 from cpgjax.sim.springs.bodies import accelerations, force_accelerations, integrate, torque_accelerations
-
-
-def point_kinematics(model, state, R):
-    """World offset from the CM, position and velocity [3, npt, B] of every point."""
-    pb = model.pt_body
-    r = matvec(R[:, :, pb], model.pt_local[:, :, None])
-    return r, state.x[:, pb] + r, state.v[:, pb] + cross(state.w[:, pb], r)
+from cpgjax.sim.springs.pivots import pivot_spring_forces
+from cpgjax.sim.state import point_kinematics
 
 
 def sum_onto_bodies(model, f_pt, torque_joint):
@@ -68,7 +62,7 @@ def forces(model, state, ctrl, var=None):
     r, p, pv = point_kinematics(model, state, R)
     fs = pivot_spring_forces(model, p, pv)
     no_contact = jnp.zeros((3, len(model.ct_pt), fs.shape[-1]), fs.dtype)
-    f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.pt_src]
+    f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.springs.pt_src]
     angle, rate, axis = joint_angles(model, R, state.w)
     tau_pi, err = servo_pi(model, angle, target, state.e_int, None if var is None else var.gain)
     tau = limit_torques(model, angle, rate).at[model.ctrl_joint].add(tau_pi)
@@ -96,14 +90,11 @@ def servo_derivative(model, R, ctrl, joints, alpha, var=None):
 
 
 def step(model, state, ctrl, var=None):
-    """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``.
+    """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``, the joints held by
+    pivot springs.
 
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (``None``: the nominal robot).
-    A model built with ``pipeline="exact"`` runs on exact joints (`sim.articulated`); the thesis's pipeline,
-    below, holds them with pivot springs.
     """
-    if model.pipeline == "exact":
-        return articulated.step(model, state, ctrl, var)
     scale = None if var is None else var.mass
     R, r, p, pv, force, torque, err, joints = forces(model, state, ctrl, var)
     a, alpha = accelerations(model, R, state.w, force, torque, scale)

@@ -7,7 +7,7 @@ from simcases import box, chain, energy
 
 from cpgjax.episode.batch import simulate
 from cpgjax.io.logs import quat_to_mat_np
-from cpgjax.sim.springs.step import step
+from cpgjax.sim import step
 from cpgjax.sim.state import initial_state
 
 
