@@ -10,7 +10,8 @@
   ``qM^-1 b`` (``mj_factorM``, ``mj_solveM``);
 - :func:`rne`: the bias forces ``qfrc_bias`` (gravity, Coriolis, gyroscopic) by recursive Newton-Euler with
   zero joint accelerations (``mj_rne``): :func:`bias_wrenches` forward, :func:`project` back;
-- :func:`com_vel`: the bodies' velocities for given generalized velocities.
+- :func:`com_vel`: the bodies' velocities for given generalized velocities;
+- :func:`subtree_com`: each subtree's centre of mass (MuJoCo's ``subtree_com``).
 
 Each stage is `tricks.stage`: its result is computed once into memory.  Featherstone, *Rigid Body Dynamics
 Algorithms* (2008), ch. 6-7 for the algorithms.
@@ -169,6 +170,20 @@ def _skew(h):
     return [[z, -h[2], h[1]], [h[2], z, -h[0]], [-h[1], h[0], z]]
 
 
+def composite(model, inert: Inertia) -> list:
+    """Each subtree's composite inertia, per level: the sums of its bodies' ``cinert`` (inertia about the root's CM,
+    mass x offset, mass)."""
+    return walk(model, lambda lvl, children, own: own if children is None else jax.tree.map(jnp.add, own, children),
+                inert.cinert, reverse=True)
+
+
+def subtree_com(model, com: Com, inert: Inertia):
+    """Each body's subtree's centre of mass [3, nb, B] (world; the bodies' order), MuJoCo's ``subtree_com``."""
+    lv = model.exact.levels
+    return from_level_items(model, [take(com.root_com, lv.anc[lvl][0] if lvl else np.arange(len(lv.bodies[0])))
+                                    + h / m for lvl, (_, h, m) in enumerate(composite(model, inert))])
+
+
 @stage
 def crb(model, com: Com, inert: Inertia) -> JointSpaceInertia:
     """The joint-space inertia ``qM`` by the composite-rigid-body algorithm (MuJoCo's ``mj_crb``).
@@ -178,8 +193,7 @@ def crb(model, com: Com, inert: Inertia) -> JointSpaceInertia:
     its dot products with the DOF's own and its ancestors' motions are their entries (Featherstone eq. 6.5).
     """
     lv = model.exact.levels
-    crb_ = walk(model, lambda lvl, children, own: own if children is None else jax.tree.map(jnp.add, own, children),
-                inert.cinert, reverse=True)
+    crb_ = composite(model, inert)
     ancestor, diag, root_dof = [None], [None], [None]
     for lvl in range(1, lv.depth + 1):
         I, h, m = crb_[lvl]
