@@ -261,10 +261,9 @@ def _root_pivot(model, S, k, d_inv):
     return S[:k, :k] - Lk[:, None] * S[k, None, :k], Lk
 
 
-@stage
 def factor_m(model, qM: JointSpaceInertia) -> Factor:
     """``qM = L^T D L`` (MuJoCo's ``mj_factorM``): the joints' DOFs from the leaves up, then each root's six (a
-    chain)."""
+    chain), each part a stage."""
     diag_inv, L_anc, L_root, S = _factor_joints(model, qM)
     root_diag_inv, rows = [None] * 6, [None] * 6
     for k in range(5, -1, -1):
