@@ -9,7 +9,7 @@ those of a conditional's taken branch (`keep`'s first form: a ``cond`` that alwa
 and of a zero-trip loop's condition (`keep`'s form now).  A loop that does work (the contact solve's, run once
 or, when some vertex is to be released, twice: `sim/exact/contact.py: _release`) is counted apart: its body's
 kernels run once per pass.  At 16 robots a step's time is about this count times 100 ns
-(docs/exact-joints.md, note 2).
+(docs/results/performance.md, "The exact pipeline").
 """
 
 import collections
