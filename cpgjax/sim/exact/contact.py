@@ -106,20 +106,20 @@ def contact_jacobian(model, com: Com, pts: Points, fr) -> ContactJacobian:
             w.append((e[0], e[1], e[2], pe[0], pe[1], pe[2]))
         w, normal = tuple(w), 0
     anc_item, joint = {}, {}
-    for a in range(lv.depth + 1):
-        items = np.array([(lv.anc[L][a][i] if a < L else i) if a <= L else -1
-                          for L, i in zip(level, item, strict=True)], np.int64)
-        anc_item[a] = items
-        if a == 0:
+    for up in range(lv.depth + 1):
+        items = np.array([(lv.anc[lvl][up][i] if up < lvl else i) if up <= lvl else -1
+                          for lvl, i in zip(level, item, strict=True)], np.int64)
+        anc_item[up] = items
+        if up == 0:
             continue
         mask = items >= 0
-        ai = np.maximum(items, 0)
-        c = cross(take(com.xaxis[a], ai), p - take(com.xanchor[a], ai))
+        at = np.maximum(items, 0)
+        c = cross(take(com.xaxis[up], at), p - take(com.xanchor[up], at))
         if not mask.all():
             c = c * mask.astype(np.float32)[:, None]
-        joint[a] = [c[e] if isinstance(e, int) else dot(c, e) for e in dirs]
-    slots = {a: _slots([list(np.nonzero(anc_item[a] == b)[0]) for b in range(len(lv.bodies[a]))])
-             for a in range(lv.depth + 1)}
+        joint[up] = [c[e] if isinstance(e, int) else dot(c, e) for e in dirs]
+    slots = {up: _slots([list(np.nonzero(anc_item[up] == b)[0]) for b in range(len(lv.bodies[up]))])
+             for up in range(lv.depth + 1)}
     return ContactJacobian(w, normal, joint, slots)
 
 
@@ -144,11 +144,11 @@ def _damped(model, qM: JointSpaceInertia, jac: ContactJacobian, beta, gamma) -> 
     if not lv.free.all():
         c_root = c_root * lv.free.astype(np.float32)[:, None]
     ancestor, diag, root_dof = [None], [None], [None]
-    for a in range(1, lv.depth + 1):
-        kj = [k_e * j_e for k_e, j_e in zip(kappas, jac.joint[a], strict=True)]
-        diag.append(gather_sum(sum(kj[e] * jac.joint[a][e] for e in range(3)), jac.slots[a]))
-        ancestor.append((None,) + tuple(gather_sum(sum(kj[e] * jac.joint[a2][e] for e in range(3)), jac.slots[a])
-                                        for a2 in range(1, a)))
+    for lvl in range(1, lv.depth + 1):
+        kj = [k_e * j_e for k_e, j_e in zip(kappas, jac.joint[lvl], strict=True)]
+        diag.append(gather_sum(sum(kj[e] * jac.joint[lvl][e] for e in range(3)), jac.slots[lvl]))
+        ancestor.append((None,) + tuple(gather_sum(sum(kj[e] * jac.joint[up][e] for e in range(3)), jac.slots[lvl])
+                                        for up in range(1, lvl)))
         r = []
         for i in range(6):
             t = None
@@ -156,9 +156,9 @@ def _damped(model, qM: JointSpaceInertia, jac: ContactJacobian, beta, gamma) -> 
                 x = mul(kj[e], jac.w[e][i])
                 if x is not None:
                     t = x if t is None else t + x
-            r.append(gather_sum(t if t is not None else zero, jac.slots[a]))
+            r.append(gather_sum(t if t is not None else zero, jac.slots[lvl]))
         r = jnp.stack(r)
-        free = lv.free[lv.anc[a][0]]
+        free = lv.free[lv.anc[lvl][0]]
         root_dof.append(r if free.all() else r * free.astype(np.float32)[:, None])
     damping = JointSpaceInertia(tuple(ancestor), tuple(diag), tuple(root_dof), c_root)
     return jax.tree.map(jnp.add, qM, damping)

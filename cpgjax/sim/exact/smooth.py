@@ -116,8 +116,8 @@ def _level_velocities(model, com: Com, u: Dofs):
             return u.root[3:6], u.root[0:3]
         wp, vp = parent
         d = com.offset[lvl]
-        a, pivot = com.xaxis[lvl], com.xanchor[lvl]
-        w = wp + u.joint[lvl] * a
+        axis, pivot = com.xaxis[lvl], com.xanchor[lvl]
+        w = wp + u.joint[lvl] * axis
         return w, vp + cross(wp, pivot - at_parent(model, lvl, com.offset[lvl - 1])) + cross(w, d - pivot)
 
     out = walk(model, level)
@@ -197,16 +197,16 @@ def crb(model, com: Com, inert: Inertia) -> JointSpaceInertia:
     ancestor, diag, root_dof = [None], [None], [None]
     for lvl in range(1, lv.depth + 1):
         I, h, m = crb_[lvl]
-        a, p = com.xaxis[lvl], com.xanchor[lvl]
-        cdof_lin = cross(p, a)
-        torque = _mv(I, a) + cross(h, cdof_lin)          # crb * cdof: about the root's CM
-        force = m * cdof_lin - cross(h, a)
-        diag.append(dot(a, torque) + dot(cdof_lin, force))
+        axis, pivot = com.xaxis[lvl], com.xanchor[lvl]
+        cdof_lin = cross(pivot, axis)
+        torque = _mv(I, axis) + cross(h, cdof_lin)          # crb * cdof: about the root's CM
+        force = m * cdof_lin - cross(h, axis)
+        diag.append(dot(axis, torque) + dot(cdof_lin, force))
         up = [None]
-        for a2 in range(1, lvl):
-            items = lv.anc[lvl][a2]
-            up.append(dot(take(com.xaxis[a2], items), torque)
-                      + dot(take(cross(com.xanchor[a2], com.xaxis[a2]), items), force))
+        for anc in range(1, lvl):
+            items = lv.anc[lvl][anc]
+            up.append(dot(take(com.xaxis[anc], items), torque)
+                      + dot(take(cross(com.xanchor[anc], com.xaxis[anc]), items), force))
         ancestor.append(tuple(up))
         rows = jnp.concatenate([force, torque])                          # [6, n, B]: the root's (lin, ang) DOFs
         free = lv.free[lv.anc[lvl][0]]
@@ -233,22 +233,22 @@ def _factor_joints(model, qM: JointSpaceInertia):
     lv = model.exact.levels
     depth = lv.depth
     diag = list(qM.diag)
-    anc = [list(x) if x is not None else None for x in qM.ancestor]
+    off = [list(x) if x is not None else None for x in qM.ancestor]    # the entries with the ancestors' DOFs
     rdof = list(qM.root_dof)
     S = qM.root
     diag_inv, L_anc, L_root = [None] * (depth + 1), [None] * (depth + 1), [None] * (depth + 1)
     for lvl in range(depth, 0, -1):
         dinv = 1.0 / diag[lvl]
         diag_inv[lvl] = dinv
-        L_anc[lvl] = (None,) + tuple(anc[lvl][a] * dinv for a in range(1, lvl))
+        L_anc[lvl] = (None,) + tuple(off[lvl][up] * dinv for up in range(1, lvl))
         L_root[lvl] = rdof[lvl] * dinv
-        for a in range(1, lvl):             # the level-a ancestor's diagonal, its row to its own ancestors
-            slots = lv.below[lvl][a]
-            La = L_anc[lvl][a]
-            diag[a] = diag[a] - gather_sum(La * anc[lvl][a], slots)
-            for a2 in range(1, a):
-                anc[a][a2] = anc[a][a2] - gather_sum(La * anc[lvl][a2], slots)
-            rdof[a] = rdof[a] - gather_sum(La[None] * rdof[lvl], slots)
+        for up in range(1, lvl):            # the level-`up` ancestor's diagonal, its row to its own ancestors
+            slots = lv.below[lvl][up]
+            L = L_anc[lvl][up]
+            diag[up] = diag[up] - gather_sum(L * off[lvl][up], slots)
+            for up2 in range(1, up):
+                off[up][up2] = off[up][up2] - gather_sum(L * off[lvl][up2], slots)
+            rdof[up] = rdof[up] - gather_sum(L[None] * rdof[lvl], slots)
         S = S - gather_sum(L_root[lvl][:, None] * rdof[lvl][None], lv.below[lvl][0])
     return tuple(diag_inv), tuple(L_anc), tuple(L_root), S
 
@@ -282,8 +282,8 @@ def solve_m(model, qLD: Factor, b: Dofs) -> Dofs:
     depth = lv.depth
     y, yr = list(b.joint), b.root
     for lvl in range(depth, 0, -1):
-        for a in range(1, lvl):
-            y[a] = y[a] - gather_sum(qLD.ancestor[lvl][a] * y[lvl], lv.below[lvl][a])
+        for up in range(1, lvl):
+            y[up] = y[up] - gather_sum(qLD.ancestor[lvl][up] * y[lvl], lv.below[lvl][up])
         yr = yr - gather_sum(qLD.root_dof[lvl] * y[lvl][None], lv.below[lvl][0])
     yr = [yr[i] for i in range(6)]
     for k in range(5, -1, -1):
@@ -299,8 +299,8 @@ def solve_m(model, qLD: Factor, b: Dofs) -> Dofs:
     x = [None] * (depth + 1)
     for lvl in range(1, depth + 1):
         xl = y[lvl] * qLD.diag_inv[lvl]
-        for a in range(1, lvl):
-            xl = xl - qLD.ancestor[lvl][a] * take(x[a], lv.anc[lvl][a])
+        for up in range(1, lvl):
+            xl = xl - qLD.ancestor[lvl][up] * take(x[up], lv.anc[lvl][up])
         x[lvl] = xl - sum0(qLD.root_dof[lvl] * take(root, lv.anc[lvl][0]))
     return Dofs(root, tuple(x))
 
@@ -323,8 +323,8 @@ def bias_wrenches(model, com: Com, inert: Inertia, qvel: tuple):
         else:
             alpha_p, acc_p = parent[0], parent[1]
             wp, dp = at_parent(model, lvl, com.w[lvl - 1]), at_parent(model, lvl, com.offset[lvl - 1])
-            a, pivot = com.xaxis[lvl], com.xanchor[lvl]
-            alpha = alpha_p + qvel[lvl] * cross(wp, a)
+            axis, pivot = com.xaxis[lvl], com.xanchor[lvl]
+            alpha = alpha_p + qvel[lvl] * cross(wp, axis)
             r = pivot - dp
             acc_pivot = acc_p + cross(alpha_p, r) + cross(wp, cross(wp, r))
             r = com.offset[lvl] - pivot

@@ -1,4 +1,4 @@
-"""Free rigid bodies (cpgjax/sim/bodies.py): free fall, momentum and energy."""
+"""Free rigid bodies (cpgjax/sim/springs/bodies.py): free fall, momentum and energy."""
 
 import jax
 import jax.numpy as jnp
