@@ -6,7 +6,7 @@ of the program, timed alone (not "first call minus a steady call", which is no c
 came out negative for MJX under load); the run is the best of the calls of that compiled program.
 ``--tricks`` also measures what each speed trick buys, side by side in one run: all
 host devices vs one, the polynomial atan2 vs the library one, the chunk size, and on exact joints
-the stages computed once into memory (`sim.exact.tricks.keep`) vs left to XLA's fusion.
+the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion.
 """
 
 from __future__ import annotations

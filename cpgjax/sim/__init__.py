@@ -6,7 +6,8 @@ the same code runs one robot or thousands.  This layer knows nothing of controll
 files or devices (see docs/architecture.md).
 
 The parts both pipelines share are here (the description, the model, the state, the terrain, the contact
-law, the servo, joint angles and limits, rotations, per-robot variation); each pipeline is a subpackage with
+law, the servo, joint angles and limits, rotations, per-robot variation, what the steps do for XLA's
+compiler); each pipeline is a subpackage with
 its own step: `sim.springs` (the thesis's pivot springs) and `sim.exact` (exact joints);
 `sim.pipeline.step` runs the model's.
 """

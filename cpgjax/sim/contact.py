@@ -118,12 +118,14 @@ def contact_frame(model, cp, var):
     return (zg - cp[2]) * n[2], _Frame(n, t1, cross(n, t1))
 
 
-def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
+def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None, keep=None):
     """Contact forces [3, nc, B], depths [nc, B], new anchors [3, nc, B] and normal forces [nc, B].
 
     ``a``, ``alpha`` [3, nb, B]: the bodies' accelerations under every force but the contacts;
     ``f_prev`` [nc, B]: each vertex's normal force of the previous step; ``var``: an optional
     per-robot :class:`~cpgjax.sim.variation.Variation` (friction and mass scales, terrain shift).
+    ``keep(tree)``: computes a tree once into memory (:func:`cpgjax.sim.springs.step.step` passes one on uneven
+    terrain, where the contact frame under each vertex is looked up: see there); ``None``: nothing kept.
 
     Normal (implicit damper on the predicted velocity ``v' = v* + dt k_n f``, the spring explicit):
     ``f = A d - B v'``, with the part of ``f`` carried over from the previous step predicted at the
@@ -139,6 +141,8 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     if len(cb) == 0:                             # a model without contact vertices
         return cp, cp[0], anchor, f_prev
     depth, fr = contact_frame(model, cp, var)
+    if keep is not None and fr.n is not None:
+        depth, fr.n, fr.t1, fr.t2 = keep((depth, fr.n, fr.t1, fr.t2))
     touch = depth > 0
     tf = touch.astype(depth.dtype)
     share = []                                  # touching vertices of the vertex's body (>= 1)

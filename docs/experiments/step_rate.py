@@ -5,7 +5,7 @@
 A `jax.lax.scan` over STEPS steps of BATCH robots (default the quadruped, 256, 200) holding random servo
 targets, compiled ahead of time; the best of 5 calls, timed as the process's CPU time (which, unlike wall
 time, holds while other jobs share the machine).  Prints one line with the stages materialized (the model's
-``exact.materialize``, `sim.exact.tricks.keep`), one without; a fourth argument (``on``) skips the second.
+``exact.materialize``, `sim.tricks.keep`), one without; a fourth argument (``on``) skips the second.
 """
 
 import dataclasses

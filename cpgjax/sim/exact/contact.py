@@ -33,9 +33,9 @@ from cpgjax.sim.contact import bristle, contact_frame, friction, trail_anchor
 from cpgjax.sim.exact.levels import Dofs, dofs_add, dofs_axpy, state_dofs
 from cpgjax.sim.exact.smooth import com_vel, factor_m, project, solve_m
 from cpgjax.sim.exact.tree import _slots
-from cpgjax.sim.exact.tricks import gather_sum, mul, rot_const, stage, take
 from cpgjax.sim.exact.types import Com, JointSpaceInertia
 from cpgjax.sim.rotation import cross, dot
+from cpgjax.sim.tricks import gather_sum, mul, rot_const, stage, take
 
 
 class Points(NamedTuple):

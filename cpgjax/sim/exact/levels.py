@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.exact.tricks import gather_sum, keep, take
+from cpgjax.sim.tricks import gather_sum, keep, take
 
 
 def walk(model, fn, *per_level, reverse: bool = False, keep_each: bool = False) -> list:
@@ -25,7 +25,7 @@ def walk(model, fn, *per_level, reverse: bool = False, keep_each: bool = False) 
     From the roots (``reverse=False``): ``carry`` is the level above's ``out`` taken at each item's parent (None at
     level 0).  From the leaves (``reverse=True``): ``carry`` is the sum of the level below's ``out`` over each
     item's children (zero for an item without; None at the deepest level).  ``keep_each``: each level's ``out``
-    below the roots is computed once into memory (:func:`~cpgjax.sim.exact.tricks.keep`) before the next level
+    below the roots is computed once into memory (:func:`~cpgjax.sim.tricks.keep`) before the next level
     reads it.
     """
     lv = model.exact.levels

@@ -24,9 +24,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.sim.exact.levels import Dofs, at_parent, from_level_items, walk
-from cpgjax.sim.exact.tricks import column, gather_sum, rot_const, rot_const_row, stage, sum0, take
 from cpgjax.sim.exact.types import Com, Factor, Inertia, JointSpaceInertia
 from cpgjax.sim.rotation import cross, dot, quat_to_mat
+from cpgjax.sim.tricks import column, gather_sum, rot_const, rot_const_row, stage, sum0, take
 
 
 def _mv(I, a):

@@ -27,11 +27,11 @@ import numpy as np
 from cpgjax.sim.exact.contact import contact
 from cpgjax.sim.exact.levels import Dofs, dofs_add, from_levels, to_levels
 from cpgjax.sim.exact.smooth import bias_wrenches, com_pos, crb, factor_m, inertia, kinematics, project, solve_m
-from cpgjax.sim.exact.tricks import take
 from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import quat_integrate
 from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
 from cpgjax.sim.state import ExactState
+from cpgjax.sim.tricks import take
 
 
 def step(model, state, ctrl, var=None):

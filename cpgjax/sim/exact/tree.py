@@ -182,7 +182,7 @@ def build_levels(tree: Tree) -> Levels:
 @dataclass(frozen=True, eq=False)
 class ExactModel:
     """The exact pipeline's part of a `~cpgjax.sim.model.Model`: its tree, the tree by depth, and whether its
-    step's stages are computed once into memory (`sim.exact.tricks.keep`; False only to measure what that buys,
+    step's stages are computed once into memory (`sim.tricks.keep`; False only to measure what that buys,
     ``cpgjax bench --tricks``: the values are the same)."""
 
     tree: Tree

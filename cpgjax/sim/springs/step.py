@@ -12,6 +12,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.sim import tricks
 from cpgjax.sim.contact import contact_body_ranges, contact_forces
 from cpgjax.sim.joints import joint_angles, limit_torques
 from cpgjax.sim.rotation import cross, dot, quat_to_mat
@@ -99,7 +100,15 @@ def step(model, state, ctrl, var=None):
     R, r, p, pv, force, torque, err, joints = forces(model, state, ctrl, var)
     a, alpha = accelerations(model, R, state.w, force, torque, scale)
     alpha = alpha + servo_derivative(model, R, ctrl, joints, alpha, var)
-    fc, _, anchor, f_n = contact_forces(model, R, r, p, pv, a, alpha, state.anchor, state.f_n, var)
+    # On uneven terrain the contact frame under each vertex (looked up in the heightfield) and the contact forces
+    # are computed once into memory (`sim/tricks.py: keep`): XLA's CPU fusion otherwise recomputed the frame for
+    # every component and every body sum that reads it, in scalar code (the car on its ramp: 5x the CPU per
+    # step, at 1 and at 16 robots; the quadruped on 2 cm roughness 3.6x; docs/results/performance.md).  Flat
+    # ground has no lookup and is left as it was, bit for bit.
+    keep = None if model.terrain.flat else tricks.keep
+    fc, _, anchor, f_n = contact_forces(model, R, r, p, pv, a, alpha, state.anchor, state.f_n, var, keep)
+    if keep is not None:
+        fc = keep(fc)
     ac, alc = force_accelerations(model, R, *sum_contacts_onto_bodies(model, fc, r[:, model.ct_pt]), scale)
     new = integrate(state, a + ac, alpha + alc, model.dt)
     return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, f_n=f_n, n=state.n + 1)

@@ -1,17 +1,19 @@
-"""What the exact pipeline does for XLA's CPU compiler (jaxlib 0.10), in one place.
+"""What the simulator does for XLA's CPU compiler (jaxlib 0.10), in one place.
 
-None of it changes a value: without any of it the step computes the same quantities, only in other fused
-kernels (and so, where a fusion changes, with another rounding in the last bit).  What each buys, measured on
-the quadruped (docs/results/performance.md has the figures; ``cpgjax bench --tricks --pipeline exact``
-measures :func:`keep` again, with and without it, in one run):
+None of it changes a value: without any of it a step computes the same quantities, only in other fused
+kernels (and so, where a fusion changes, with another rounding in the last bit).  What each buys
+(docs/results/performance.md has the figures; ``cpgjax bench --tricks --pipeline exact`` measures
+:func:`keep` again, with and without it, in one run):
 
-- :func:`keep` and :func:`stage`: each stage's result computed once into memory.  XLA's CPU fusion puts an
-  intermediate into every fusion that reads it and computes it there again, per element read (the roots' 6x6
-  solve was recomputed for each of the nine bodies' velocity components).  The largest of the tricks.
+- :func:`keep`: values computed once into memory.  XLA's CPU fusion puts an intermediate into every fusion
+  that reads it and computes it there again, per element read (the roots' 6x6 solve of the exact pipeline
+  was recomputed for each of the nine bodies' velocity components; on uneven ground the springs pipeline's
+  contact frame for every component and body sum that reads it).  The largest of the tricks: every stage of
+  the exact pipeline (:func:`stage`), and on uneven ground the springs pipeline's contact frame and forces.
 - :func:`take`: static item lists as slices and broadcasts, not gathers (a gather does not fuse with what
-  follows: the step ran 1.7x slower with gathers).
+  follows: the exact step ran 1.7x slower with gathers).
 - :func:`sum0`: a short sum over a leading axis as a chain of adds (XLA's reduce over a 6-long leading axis
-  was the slowest kernel of the step in a profile, about 200 us of 1,000).
+  was the slowest kernel of the exact step in a profile, about 200 us of 1,000).
 - :func:`rot_const`, :func:`rot_const_row`, :func:`column`, :func:`mul`: products with constants known when
   the program is traced leave out the terms that are zero (XLA does not fold ``0 * x`` for floats: it would
   change ``0 * inf``).
@@ -27,7 +29,8 @@ import numpy as np
 
 
 def keep(tree, on: bool = True):
-    """``tree``, computed once into memory (``on``: the model's ``exact.materialize``; off, ``tree`` itself).
+    """``tree``, computed once into memory (``on``: on the exact pipeline the model's ``exact.materialize``; off,
+    ``tree`` itself).
 
     `jax.lax.optimization_barrier` does not do it (XLA's CPU compiler drops the barriers before fusion); a loop
     does (its operands must be in memory), so the values pass through a ``while_loop`` that runs zero times: its

@@ -1,5 +1,5 @@
-"""What the exact pipeline does for XLA's compiler (cpgjax/sim/exact/tricks.py) changes where values are computed,
-never the values."""
+"""What the simulator does for XLA's compiler (cpgjax/sim/tricks.py) changes where values are computed, never the
+values."""
 
 import dataclasses
 
@@ -10,7 +10,7 @@ import pytest
 from simcases import model_from
 
 from cpgjax.sim import initial_state, step
-from cpgjax.sim.exact.tricks import column, gather_sum, keep, mul, rot_const, sum0, take
+from cpgjax.sim.tricks import column, gather_sum, keep, mul, rot_const, sum0, take
 
 X = jnp.asarray(np.random.default_rng(0).normal(size=(3, 7, 4)), jnp.float32)
 
