@@ -48,9 +48,9 @@ from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.errors import ResultsError
 from cpgjax.experiments.repertoire import read_repertoire
 from cpgjax.io.wl import load_model
+from cpgjax.sim.pipeline import step
 from cpgjax.sim.rotation import quat_to_mat
 from cpgjax.sim.state import initial_state, sim_time
-from cpgjax.sim.step import step
 
 PATHS = ("line", "square", "circle", "figure8", "points")
 LOOKAHEAD = 64          # candidate gaits simulated ahead every cycle (0: the nearest-turn rule)
