@@ -99,7 +99,8 @@ def test_the_exported_ground_is_ours_a_sphere_radius_lower(spec, tol):
     rng = np.random.default_rng(0)
     xs, ys = rng.uniform(-0.5, 0.5, 3000), rng.uniform(-1.0, 3.0, 3000)
     down = np.array([0.0, 0.0, -1.0])
-    hit = np.array([10.0 - mujoco.mj_rayHfield(mj, d, gid, np.array([x, y, 10.0]), down) for x, y in zip(xs, ys)])
+    hit = np.array([10.0 - mujoco.mj_rayHfield(mj, d, gid, np.array([x, y, 10.0]), down)
+                    for x, y in zip(xs, ys, strict=True)])
     err = np.abs(hit + CONTACT_RADIUS - m.terrain.height_np(xs, ys))
     assert err.max() < tol, (spec, err.max())
 
