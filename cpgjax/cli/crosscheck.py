@@ -118,7 +118,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
     print(table(rows, summary, engines))
     if args.out:
-        print(f"\nwrote {args.out}/crosscheck.md, joints.png, cm_path.png")
+        print(f"\nwrote {args.out}/crosscheck.md, crosscheck.json, joints.png, cm_path.png")
     return 0
 
 
