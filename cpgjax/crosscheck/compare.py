@@ -149,8 +149,8 @@ def table(rows, summary, engines) -> str:
                      f"{summary['penalty_alpha']:g} N/m, {summary['penalty_beta']:g} N s/m (eq. 3.6), "
                      "springs pipeline.")
     if summary.get("terrain", "flat") != "flat":
-        lines.append(f"Terrain {summary['terrain']}; MuJoCo's heightfield samples the same surface (crosscheck/mjcf.py: "
-                     "hfield_grid).")
+        lines.append(f"Terrain {summary['terrain']}; MuJoCo's heightfield samples the same surface "
+                     "(crosscheck/mjcf.py: hfield_grid).")
     falls = ", ".join(f"{e} {summary[f'falls_{e}']}" for e in engines if f"falls_{e}" in summary)
     lines.append(f"{summary['n']} controllers, {summary['time']:g} s each; fell: {falls}.  Spearman rank correlation "
                  "(95 % bootstrap interval over the controllers):")
