@@ -116,3 +116,63 @@ def test_a_sweeps_runs_can_be_summarised_per_setting(runs, capsys):
     assert cli.main(["transfer", *files, "--replays", "1", "--by", "cell", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary[runs.name]["runs"] == 2
+
+
+def _replay(here=0.25, speed=0.25, fell=False, there=0.24, falls=0):
+    jit = {"mean": there, "sd": 0.0, "falls": falls, "speed": there}
+    return transfer.Replay(run="r.h5", evaluation="robust", cell="c", seed=0, fitness_in_run=here,
+                           ours={"fitness": here, "speed": speed, "distance": 10 * speed, "fallen": fell},
+                           mujoco={"fitness": there, "speed": there, "distance": 10 * there, "fallen": False},
+                           ours_jit=jit | {"mean": here, "falls": 0}, mujoco_jit=jit)
+
+
+@pytest.mark.parametrize("changes, failed", [
+    ({}, []),                                                     # walks here, 96 % in MuJoCo, no falls
+    ({"fell": True}, ["fell here"]),                              # fell here (it still went 0.25 m/s)
+    ({"speed": 0.05, "here": 0.04, "there": 0.04}, ["0.05 m/s here"]),   # barely moves, alike in both
+    ({"there": 0.15}, ["MuJoCo 60%"]),                            # slower in MuJoCo
+    ({"falls": 3}, ["3 MuJoCo falls"]),                           # falls in 3 of the jittered MuJoCo replays
+    ({"speed": 0.1, "falls": 2, "there": 0.175}, []),             # each bound itself carries over
+])
+def test_a_gait_carries_over_when_it_walks_here_and_in_mujoco(changes, failed):
+    r = _replay(**changes)
+    assert r.failures == failed and r.carries_over == (not failed)
+    row = transfer.table([r], 32).splitlines()[2]
+    assert row.endswith(f"| {'yes' if not failed else 'no: ' + ', '.join(failed)} |"), row
+
+
+def test_a_gait_that_fell_here_and_walks_in_mujoco_no_longer_carries_over():
+    """The case the rule was changed for: fitness 0.001 here (fell), 0.207 in MuJoCo, ratio 181."""
+    r = _replay(here=0.001, speed=-0.02, fell=True, there=0.207)
+    assert r.ratio > 100 and r.failures == ["fell here", "-0.02 m/s here"]
+    assert transfer.failures(-0.03, 0.2, False, 0.1, 0) == ["MuJoCo -"]     # no score here: no ratio
+
+
+def test_a_table_is_restated_by_todays_rule(tmp_path, capsys):
+    runs = [_replay(), _replay(here=0.001, speed=-0.02, fell=True, there=0.207), _replay(falls=9)]
+    text = transfer.table(runs, 32).replace("| no: fell here, -0.02 m/s here |", "| yes |")   # the old verdict
+    rows = transfer.read_table("Here: exact pipeline.\n\n" + text)
+    assert [(r["fitness_here"], r["fell_here"], r["speed_here"], r["mujoco_falls"], r["carried"]) for r in rows] == [
+        (0.25, False, 0.25, 0, True), (0.001, True, -0.02, 0, True), (0.25, False, 0.25, 9, False)]
+    assert [r["failures"] for r in transfer.restate(rows)] == [[], ["fell here", "-0.02 m/s here"], ["9 MuJoCo falls"]]
+    path = tmp_path / "transfer.md"
+    path.write_text(text)
+    assert cli.main(["transfer", "--restate", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "was yes, now no: fell here, -0.02 m/s here" in out and "carry over: 1 of 3" in out and "said 2 of 3" in out
+    (tmp_path / "empty.md").write_text("no table here\n")
+    assert cli.main(["transfer", "--restate", str(tmp_path / "empty.md")]) == 2
+    assert "empty.md: no per-run rows of a transfer table" in capsys.readouterr().err
+
+
+def test_transfer_replays_on_a_given_terrain_in_both_engines(runs, capsys):
+    (r,) = transfer.replay_runs([runs / "thesis.h5"], replays=1, terrain="rough:0.01:0.1:3")
+    model = transfer._model(str(transfer.read_run(str(runs / "thesis.h5")).meta["model_text"]), "q.wl",
+                            "rough:0.01:0.1:3")
+    assert model.terrain.spec == "rough:0.01:0.1:3" and r.ours["fitness"] != pytest.approx(r.fitness_in_run, abs=1e-7)
+    from cpgjax.crosscheck.mjcf import to_mjcf
+    assert 'type="hfield"' in to_mjcf(model)
+    parser = cli.build_parser()
+    assert "rough:0.02:0.1:SEED" in parser._subparsers._group_actions[0].choices["transfer"].format_help()
+    assert cli.main(["transfer", str(runs), "--terrain", "rough:-1"]) == 2
+    assert "--terrain" in capsys.readouterr().err
