@@ -47,7 +47,7 @@ def register(subparsers: Any) -> None:
                     "simulator and in MuJoCo C, once and under jittered replays, on the terrain it was evolved on "
                     "(or --terrain's, in both engines); tabulate fitness and speed here vs there, their ratio, the "
                     "falls and whether the gait carries over: it walks here (no fall, at least 0.1 m/s) and in "
-                    "MuJoCo at >= 70 %% of its fitness here with at most 2 falls in the jittered replays, per "
+                    "MuJoCo at >= 70 % of its fitness here with at most 2 falls in the jittered replays, per "
                     "evaluation mode (thesis / robust).  With --pick "
                     "validated, each run's champion is first chosen by validation: its best candidates re-scored "
                     "over fresh perturbed episodes, the same for each (docs/evolution.md).")
