@@ -17,13 +17,13 @@ How the penalty model maps onto MuJoCo's:
   ``hfield_sub`` times finer than ours (MuJoCo triangulates each cell; see ``hfield_grid``); either
   lies ``CONTACT_RADIUS`` below our ground, so that a sphere's lowest point rests where our vertex does.
 
-Why 1 cm spheres, not points: MuJoCo's soft contact lets a loaded foot sink 1.6 mm (median) to 8 mm (99.9th
+Why 1 cm spheres, not points: MuJoCo's soft contact lets a loaded foot sink 1.9 mm (median; 5.9 mm at the 99th
 percentile) while the quadruped trots on flat ground, and a heightfield is a union of triangular prisms, each
 collided with the sphere on its own.  A sphere whose centre sinks below the top of a prism beside it is pushed
-out through that prism's vertical wall, sideways: a 2 mm foot got stuck in the ground (on 2 cm roughness 56 %
-of its contacts pointed more than 45 degrees from vertical, and the trot walked 0.27 m in 10 s where it walks
-1.3-1.4 m in our simulator); a 1 cm sphere stays above the prisms' tops (1 %).  On a plane the lowered ground
-makes the sphere a point foot at the vertex (docs/crosscheck.md; ``docs/experiments/rough_contacts.py``).
+out through that prism's vertical wall, sideways: a 2 mm foot got stuck in the ground (on 2 cm roughness 75 %
+of its contacts pointed more than 45 degrees from vertical, and the trot walked 0.36 m in 10 s where it walks
+1.3-1.4 m in our simulator); with a 1 cm sphere 0.6 % (1.48 m).  On a plane the lowered ground makes the
+sphere a point foot at the vertex (docs/crosscheck.md; ``docs/experiments/rough_contacts.py``).
 - looks: the objects' boxes/cylinders as visual geoms (no contact, no mass).
 """
 
@@ -38,8 +38,8 @@ from cpgjax.sim.terrain import EXTENT_X, EXTENT_Y
 
 CONTACT_RADIUS = 0.01  # m: the foot spheres, larger than MuJoCo lets a loaded foot sink (see above)
 MJ_TIMESTEP = 0.002  # s: MuJoCo's default step, stable for this robot
-HFIELD_SUB = 4  # heightfield points per cell of ours, along x and y: MuJoCo's triangles within 0.9 mm of our
-#                 bilinear surface on 4 cm roughness (2.9 mm at 2, 14 mm at 1), tests/crosscheck/test_mjcf.py
+HFIELD_SUB = 4  # heightfield points per cell of ours, along x and y: MuJoCo's triangles within 0.86 mm of our
+#                 bilinear surface on 4 cm roughness (3.2 mm at 2, 14 mm at 1), tests/crosscheck/test_mjcf.py
 HFIELD_POINTS = 200_000  # at most this many heightfield points: fewer subdivisions on finer grids
 
 
