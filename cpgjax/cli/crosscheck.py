@@ -44,11 +44,15 @@ def register(subparsers: Any) -> None:
     t = subparsers.add_parser(
         "transfer", help="do evolved gaits carry over? each run's best replayed in MuJoCo C (thesis Fig. 6.3-6.4)",
         description="Replay the best controller of each run (RUN.h5 files, or every run of sweep folders) in our "
-                    "simulator and in MuJoCo C, once and under jittered replays; tabulate fitness and speed here vs "
-                    "there, their ratio and the falls, per evaluation mode (thesis / robust).  With --pick "
+                    "simulator and in MuJoCo C, once and under jittered replays, on the terrain it was evolved on "
+                    "(or --terrain's, in both engines); tabulate fitness and speed here vs there, their ratio, the "
+                    "falls and whether the gait carries over: it walks here (no fall, at least 0.1 m/s) and in "
+                    "MuJoCo at >= 70 % of its fitness here with at most 2 falls in the jittered replays, per "
+                    "evaluation mode (thesis / robust).  With --pick "
                     "validated, each run's champion is first chosen by validation: its best candidates re-scored "
                     "over fresh perturbed episodes, the same for each (docs/evolution.md).")
-    t.add_argument("runs", nargs="+", metavar="RUN.h5|SWEEP_DIR")
+    t.add_argument("runs", nargs="+", metavar="RUN.h5|SWEEP_DIR",
+                   help="run files, or sweep folders (every run in them); with --restate, transfer tables")
     t.add_argument("--replays", type=o.count, default=32, help="jittered replays per run (default 32)")
     t.add_argument("--jitter", type=o.nonneg, default=1e-3, help="sd of the gene jitter, rad (default 1e-3)")
     o.seed_option(t, what="random seed of the jitter and the validation")
@@ -56,6 +60,12 @@ def register(subparsers: Any) -> None:
                    help="which controller of each run: the best score it recorded (default), or the champion of a "
                         "validation (--candidates, --episodes)")
     o.validation_options(t)
+    t.add_argument("--terrain", type=o.terrain,
+                   help="replay every run on this terrain, here and in MuJoCo (the same field exported), instead of "
+                        "the one it was evolved on (default); e.g. rough:0.02 or rough:0.02:0.1:SEED")
+    t.add_argument("--restate", action="store_true",
+                   help="the arguments are transfer tables (transfer.md, as --out writes them): judge each run again "
+                        "by today's rule from the figures in the table, without replaying anything")
     t.add_argument("--by", choices=("evaluation", "cell"), default="evaluation",
                    help="summary rows per evaluation mode (default), or per setting of a sweep (its cell folders: "
                         "which GA settings and baselines evolve gaits that carry over)")
@@ -116,7 +126,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
     print(table(rows, summary, engines))
     if args.out:
-        print(f"\nwrote {args.out}/crosscheck.md, joints.png, cm_path.png")
+        print(f"\nwrote {args.out}/crosscheck.md, crosscheck.json, joints.png, cm_path.png")
     return 0
 
 
@@ -127,6 +137,15 @@ def cmd_transfer(args: argparse.Namespace) -> int:
 
     from cpgjax.crosscheck import transfer
 
+    if args.restate:
+        for path in args.runs:
+            with open(path) as f:
+                rows = transfer.read_table(f.read())
+            if not rows:
+                raise ValueError(f"{path}: no per-run rows of a transfer table (| run | evaluation | fitness here | "
+                                 "...) in it")
+            print(transfer.restate_text(path, rows))
+        return 0
     if args.out:
         o.check_output_dir(args.out)
     files = transfer.run_files(args.runs)
@@ -149,12 +168,15 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
                                        dt=args.dt, joint_spring=args.joint_spring, pipeline=args.pipeline,
-                                       pick=pick, progress=lambda _: bar.update())
+                                       terrain=args.terrain, pick=pick, progress=lambda _: bar.update())
     summary = transfer.summary(replays, args.by)
     summary["pick"] = args.pick
     if args.pipeline is not None:
         here.append(f"{args.pipeline} pipeline")
         summary["pipeline"] = args.pipeline
+    if args.terrain is not None:
+        here.append(f"terrain {args.terrain} (in MuJoCo too)")
+        summary["terrain"] = args.terrain
     if args.dt is not None:
         here.append(f"step {args.dt * 1e3:g} ms")
         summary["dt"] = args.dt

@@ -8,6 +8,7 @@ the place of the real robot).
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -86,12 +87,15 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
             row[f"{e}_fallen"] = bool(np.asarray(res[e]["fallen"])[i])
         rows.append(row)
     summary = {"n": len(labels), "time": time, "penalty_dt": model.dt, "penalty_alpha": model.alpha,
-               "penalty_beta": model.beta, "penalty_pipeline": model.pipeline}
+               "penalty_beta": model.beta, "penalty_pipeline": model.pipeline, "terrain": model.terrain.spec}
+    for e in engines:
+        summary[f"falls_{e}"] = int(np.sum(np.asarray(res[e]["fallen"], bool)))
     for a, b in (("penalty", "mujoco"), ("penalty", "mjx"), ("mujoco", "mjx")):
         if a in res and b in res:
             summary[f"rho_{a}_{b}"] = spearman(res[a]["fitness"], res[b]["fitness"])
             summary[f"ci_{a}_{b}"] = spearman_interval(res[a]["fitness"], res[b]["fitness"])
             summary[f"rho_dist_{a}_{b}"] = spearman(res[a]["distance"], res[b]["distance"])
+            summary[f"ratio_{a}_{b}"] = distance_ratio(res[a], res[b])
     if ceiling:
         half = mujoco_run(model, coeffs, time=time, delta=delta, timestep=MJ_TIMESTEP / 2)[0]
         summary["rho_mujoco_half"] = spearman(res["mujoco"]["fitness"], half["fitness"])
@@ -105,8 +109,26 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
         os.makedirs(out_dir, exist_ok=True)
         with open(os.path.join(out_dir, "crosscheck.md"), "w") as f:
             f.write(table(rows, summary, engines) + "\n")
+        with open(os.path.join(out_dir, "crosscheck.json"), "w") as f:
+            json.dump({"summary": summary, "controllers": rows}, f, indent=1, default=float)
         _plots(model, pen, mj_q, show, labels[show], out_dir, mj_dt=None, time=time)
     return rows, summary
+
+
+WALKS = 0.1  # m: a controller "walks" in an engine when it stays up and goes at least this far forward
+
+
+def distance_ratio(a: dict, b: dict) -> dict:
+    """How far engine b carries the controllers that walk in both, against engine a: the ratio
+    ``distance_b / distance_a`` per controller that stays up and goes at least :data:`WALKS` m forward in both,
+    its median and quartiles (``n`` such controllers; NaN when none)."""
+    da, db = np.asarray(a["distance"], float), np.asarray(b["distance"], float)
+    ok = ~np.asarray(a["fallen"], bool) & ~np.asarray(b["fallen"], bool) & (da >= WALKS) & (db >= WALKS)
+    r = db[ok] / da[ok]
+    if not len(r):
+        return {"n": 0, "median": float("nan"), "q1": float("nan"), "q3": float("nan")}
+    q1, med, q3 = np.quantile(r, [0.25, 0.5, 0.75])
+    return {"n": int(len(r)), "median": float(med), "q1": float(q1), "q3": float(q3)}
 
 
 def table(rows, summary, engines) -> str:
@@ -126,7 +148,11 @@ def table(rows, summary, engines) -> str:
         lines.append(f"Our simulator: step {summary['penalty_dt'] * 1e3:g} ms, pivot springs "
                      f"{summary['penalty_alpha']:g} N/m, {summary['penalty_beta']:g} N s/m (eq. 3.6), "
                      "springs pipeline.")
-    lines.append(f"{summary['n']} controllers, {summary['time']:g} s each.  Spearman rank correlation "
+    if summary.get("terrain", "flat") != "flat":
+        lines.append(f"Terrain {summary['terrain']}; MuJoCo's heightfield samples the same surface "
+                     "(crosscheck/mjcf.py: hfield_grid).")
+    falls = ", ".join(f"{e} {summary[f'falls_{e}']}" for e in engines if f"falls_{e}" in summary)
+    lines.append(f"{summary['n']} controllers, {summary['time']:g} s each; fell: {falls}.  Spearman rank correlation "
                  "(95 % bootstrap interval over the controllers):")
     for k, v in summary.items():
         if k.startswith("rho_") and not k.startswith("rho_dist"):
@@ -140,6 +166,12 @@ def table(rows, summary, engines) -> str:
                              f"(distance: {dist:+.3f}); {a}'s ceiling: what discretisation alone costs")
             else:
                 lines.append(f"- fitness {a} vs {b}: {val}  (distance: {dist:+.3f})")
+    for k, v in summary.items():
+        if k.startswith("ratio_"):
+            a, b = k[6:].split("_")
+            text = (f"{v['median']:.2f} (quartiles {v['q1']:.2f}-{v['q3']:.2f})" if v["n"] else "-")
+            lines.append(f"- distance {b} / {a} over the {v['n']} controllers that walk in both (stay up, "
+                         f">= {WALKS:g} m forward): median {text}")
     return "\n".join(lines)
 
 

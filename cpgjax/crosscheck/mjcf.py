@@ -10,10 +10,20 @@ How the penalty model maps onto MuJoCo's:
 - servo: a ``position`` actuator per controlled joint with the same kp, kv = kd and force
   range +-tau_max.  MuJoCo's is ``kp (u - q) - kv qdot``; ours has ``kd (q*' - qdot)``: feeding
   ``u = q* + (kd/kp) q*'`` makes them equal below saturation (see ``servo_ctrl``);
-- contact: a sphere of ``CONTACT_RADIUS`` at each contact vertex (MuJoCo collides geoms,
+- contact: a sphere of ``CONTACT_RADIUS`` centred on each contact vertex (MuJoCo collides geoms,
   not points), the same friction coefficient, and ``solref = -A/m_c -B/m_c`` in MuJoCo's direct
   stiffness/damping form (see ``contact_solref``: MuJoCo's are per unit mass, eq. 3.7's are forces);
-- terrain: a plane when flat, else an ``hfield`` with the same heights;
+- terrain: a plane when flat, else an ``hfield`` sampled from our bilinear surface on a grid
+  ``hfield_sub`` times finer than ours (MuJoCo triangulates each cell; see ``hfield_grid``); either
+  lies ``CONTACT_RADIUS`` below our ground, so that a sphere's lowest point rests where our vertex does.
+
+Why 1 cm spheres, not points: MuJoCo's soft contact lets a loaded foot sink 1.9 mm (median; 5.9 mm at the 99th
+percentile) while the quadruped trots on flat ground, and a heightfield is a union of triangular prisms, each
+collided with the sphere on its own.  A sphere whose centre sinks below the top of a prism beside it is pushed
+out through that prism's vertical wall, sideways: a 2 mm foot got stuck in the ground (on 2 cm roughness 75 %
+of its contacts pointed more than 45 degrees from vertical, and the trot walked 0.36 m in 10 s where it walks
+1.3-1.4 m in our simulator); with a 1 cm sphere 0.6 % (1.48 m).  On a plane the lowered ground makes the
+sphere a point foot at the vertex (docs/crosscheck.md; ``docs/experiments/rough_contacts.py``).
 - looks: the objects' boxes/cylinders as visual geoms (no contact, no mass).
 """
 
@@ -24,9 +34,13 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
+from cpgjax.sim.terrain import EXTENT_X, EXTENT_Y
 
-CONTACT_RADIUS = 0.002  # m
+CONTACT_RADIUS = 0.01  # m: the foot spheres, larger than MuJoCo lets a loaded foot sink (see above)
 MJ_TIMESTEP = 0.002  # s: MuJoCo's default step, stable for this robot
+HFIELD_SUB = 4  # heightfield points per cell of ours, along x and y: MuJoCo's triangles within 0.86 mm of our
+#                 bilinear surface on 4 cm roughness (3.2 mm at 2, 14 mm at 1), tests/crosscheck/test_mjcf.py
+HFIELD_POINTS = 200_000  # at most this many heightfield points: fewer subdivisions on finer grids
 
 
 def _f(v) -> str:
@@ -64,8 +78,46 @@ def contact_solref(model) -> str:
     return f"{-model.ground_A / mc:.6g} {-model.ground_B / mc:.6g}"
 
 
-def to_mjcf(model, *, timestep: float = MJ_TIMESTEP) -> str:
-    """MJCF text of a cpgjax Model (built from a `.wl` Description)."""
+def hfield_grid(terrain, sub: int | None = None):
+    """(heights [ny, nx], x0, y0, dx, dy): the heightfield exported for ``terrain``, our surface sampled.
+
+    MuJoCo splits each heightfield cell into two triangles; our surface is bilinear in each cell
+    (Appendix A), which differs from them by up to a quarter of the cell's twist ``h00 - h01 - h10 + h11``:
+    half the range of a rough field.  Sampled ``sub`` times per cell of ours along x and y, MuJoCo's triangles
+    are within ``1/sub^2`` of that.  ``sub`` defaults to :data:`HFIELD_SUB`, fewer where the grid would exceed
+    :data:`HFIELD_POINTS` points.  MuJoCo has no ground beyond its heightfield, ours keeps the height of the
+    nearest edge: the grid is extended by whole cells of ours to cover the workspace (``sim.terrain.EXTENT_X``,
+    ``EXTENT_Y``: a bump's grid is only the bump and 10 cm either side), where that fits in the points.
+    """
+    ny0, nx0 = terrain.heights.shape
+    dx, dy = terrain.dx, terrain.dy
+    lo_x = max(0, int(np.ceil((terrain.x0 - EXTENT_X[0]) / dx - 1e-9)))
+    hi_x = max(0, int(np.ceil((EXTENT_X[1] - (terrain.x0 + dx * (nx0 - 1))) / dx - 1e-9)))
+    lo_y = max(0, int(np.ceil((terrain.y0 - EXTENT_Y[0]) / dy - 1e-9)))
+    hi_y = max(0, int(np.ceil((EXTENT_Y[1] - (terrain.y0 + dy * (ny0 - 1))) / dy - 1e-9)))
+    if (ny0 + lo_y + hi_y) * (nx0 + lo_x + hi_x) > HFIELD_POINTS:
+        lo_x = hi_x = lo_y = hi_y = 0
+    nx, ny = nx0 + lo_x + hi_x, ny0 + lo_y + hi_y
+    x0, y0 = terrain.x0 - lo_x * dx, terrain.y0 - lo_y * dy
+    if sub is None:
+        sub = HFIELD_SUB
+        while sub > 1 and ((ny - 1) * sub + 1) * ((nx - 1) * sub + 1) > HFIELD_POINTS:
+            sub -= 1
+    if sub == 1 and nx == nx0 and ny == ny0:
+        return np.asarray(terrain.heights, float), x0, y0, dx, dy
+    xs = x0 + dx * np.arange((nx - 1) * sub + 1) / sub
+    ys = y0 + dy * np.arange((ny - 1) * sub + 1) / sub
+    X, Y = np.meshgrid(xs, ys)
+    return np.asarray(terrain.height_np(X, Y), float), x0, y0, dx / sub, dy / sub
+
+
+def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CONTACT_RADIUS,
+            hfield_sub: int | None = None) -> str:
+    """MJCF text of a cpgjax Model (built from a `.wl` Description).
+
+    ``contact_radius``: the foot spheres' radius (the ground lies that much lower); ``hfield_sub``: the
+    heightfield's points per cell of ours (:func:`hfield_grid`).  Both are for experiments
+    (``docs/experiments/rough_contacts.py``); the defaults are the export."""
     desc = model.description
     root = ET.Element("mujoco", model=desc.path.rsplit("/", 1)[-1] if desc else "cpgjax")
     ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")
@@ -79,20 +131,23 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP) -> str:
     world = ET.SubElement(root, "worldbody")
     ET.SubElement(world, "light", pos="0 0 3", dir="0 0 -1")
     t = model.terrain
+    r = float(contact_radius)
     if t.flat:
-        ET.SubElement(world, "geom", name="ground", type="plane", size="20 20 0.1", contype="1",
+        ET.SubElement(world, "geom", name="ground", type="plane", size="20 20 0.1", pos=f"0 0 {-r:.9g}", contype="1",
                       conaffinity="1", friction=f"{mu:g} 0.005 0.0001", solref=solref, rgba=".8 .8 .8 1")
     else:
-        ny, nx = t.heights.shape
-        hmin, hmax = float(t.heights.min()), float(t.heights.max())
+        H, x0, y0, dx, dy = hfield_grid(t, hfield_sub)
+        ny, nx = H.shape
+        hmin, hmax = float(H.min()), float(H.max())
         span = max(hmax - hmin, 1e-6)
         ET.SubElement(asset, "hfield", name="terrain", nrow=str(ny), ncol=str(nx),
-                      size=f"{t.dx * (nx - 1) / 2:g} {t.dy * (ny - 1) / 2:g} {span:g} 0.1",
+                      size=f"{dx * (nx - 1) / 2:.9g} {dy * (ny - 1) / 2:.9g} {span:.9g} 0.1",
                       # MuJoCo's first elevation row is at +y, ours (heights[iy]) at -y: flip the rows
-                      elevation=_f(((t.heights - hmin) / span)[::-1]))
-        cx, cy = t.x0 + t.dx * (nx - 1) / 2, t.y0 + t.dy * (ny - 1) / 2
-        ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain", pos=f"{cx:g} {cy:g} {hmin:g}",
-                      contype="1", conaffinity="1", friction=f"{mu:g} 0.005 0.0001", solref=solref)
+                      elevation=" ".join(f"{v:.7g}" for v in ((H - hmin) / span)[::-1].ravel()))
+        cx, cy = x0 + dx * (nx - 1) / 2, y0 + dy * (ny - 1) / 2
+        ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain",
+                      pos=f"{cx:.9g} {cy:.9g} {hmin - r:.9g}", contype="1", conaffinity="1",
+                      friction=f"{mu:g} 0.005 0.0001", solref=solref)
 
     children = {int(b): j for j, b in enumerate(model.j_b)}
     kids: dict[int, list[int]] = {}
@@ -127,7 +182,7 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP) -> str:
         _visuals(el, desc, name)
         for k, pt in enumerate(model.ct_pt):
             if model.pt_body[pt] == i:
-                ET.SubElement(el, "geom", name=f"{name}_c{k}", type="sphere", size=f"{CONTACT_RADIUS:g}",
+                ET.SubElement(el, "geom", name=f"{name}_c{k}", type="sphere", size=f"{r:g}",
                               pos=_f(model.pt_local[:, pt] + model.cm_local[:, i]), contype="1", conaffinity="0",
                               friction=f"{mu:g} 0.005 0.0001", solref=solref, group="3")
         for j in kids.get(i, []):

@@ -9,7 +9,10 @@ runs evolved with the thesis's single episode and with the robust evaluation, si
 
 A run is replayed on the model text stored in its file (not the `.wl` on disk, which may have
 changed since) and on the terrain and episode length it was evolved with (for a robust run: its
-nominal terrain, without the evaluation's roughness).
+nominal terrain, without the evaluation's roughness), or on another terrain given (``terrain``: in both
+engines, MuJoCo's the same field exported).
+
+A gait *carries over* when it walks here and in MuJoCo (:data:`RULE`, :func:`failures`).
 """
 
 from __future__ import annotations
@@ -30,10 +33,15 @@ from cpgjax.io.sweepdir import run_files
 from cpgjax.io.wl import parse_wl
 from cpgjax.sim.model import build_model
 
-# What "carries over" means: the gait walks in MuJoCo at >= 70 % of the fitness it
-# scores here, and falls in at most 2 of 32 jittered MuJoCo replays.
-MIN_RATIO = 0.7
-MAX_FALLS = 2
+# What "carries over" means (the one definition, :func:`failures`): the gait walks here -- it does not fall and
+# goes at least MIN_SPEED -- and in MuJoCo it scores at least MIN_RATIO of its fitness here and falls in at most
+# MAX_FALLS of the jittered replays (32 by default).  Before, the first condition was missing: a gait that fell
+# here (fitness 0.001) and walked in MuJoCo had ratio 181 and carried over, and so did one that barely moved.
+MIN_SPEED = 0.1   # m/s, here
+MIN_RATIO = 0.7   # MuJoCo's fitness over ours
+MAX_FALLS = 2     # of the jittered MuJoCo replays
+RULE = (f"walks here (no fall, at least {MIN_SPEED:g} m/s) and in MuJoCo at >= {MIN_RATIO:.0%} of its fitness here "
+        f"with at most {MAX_FALLS} falls in the jittered replays")
 # evaluation modes, as the tables name them: the run's --evaluation, the robust one split by its fall rule
 FORFEITS = "robust, a fall forfeits"          # --perturb fall_zero=on
 SCALES = "robust, a fall scales the score"     # --perturb fall_survival=on
@@ -73,8 +81,41 @@ class Replay:
         return self.mujoco["fitness"] / self.ours["fitness"] if self.ours["fitness"] > 0 else float("nan")
 
     @property
+    def failures(self) -> list[str]:
+        """Which conditions of carrying over this gait fails (:func:`failures`); empty when it carries over."""
+        return failures(self.ours["fitness"], self.ours["speed"], self.ours["fallen"], self.mujoco["fitness"],
+                        self.mujoco_jit["falls"])
+
+    @property
     def carries_over(self) -> bool:
-        return bool(self.ratio >= MIN_RATIO and self.mujoco_jit["falls"] <= MAX_FALLS)
+        return not self.failures
+
+
+def failures(fitness_here: float, speed_here: float, fell_here: bool, fitness_mujoco: float,
+             mujoco_falls: int) -> list[str]:
+    """The conditions of carrying over (:data:`RULE`) that a gait fails, each named in a few words: ``fell here``,
+    ``0.03 m/s here`` (slower than :data:`MIN_SPEED`), ``MuJoCo 45 %`` (of our fitness, below :data:`MIN_RATIO`),
+    ``15 MuJoCo falls`` (more than :data:`MAX_FALLS` of the jittered replays).  Empty: it carries over.
+
+    The gait is the run's controller replayed once as it is (here and in MuJoCo); the falls are those of its
+    jittered MuJoCo replays.  A gait that does not score here (fitness <= 0) has no ratio: ``MuJoCo -``.
+    """
+    out = []
+    if fell_here:
+        out.append("fell here")
+    if not speed_here >= MIN_SPEED:
+        out.append(f"{speed_here:.2f} m/s here")
+    ratio = fitness_mujoco / fitness_here if fitness_here > 0 else float("nan")
+    if not ratio >= MIN_RATIO:
+        out.append(f"MuJoCo {ratio:.0%}" if np.isfinite(ratio) else "MuJoCo -")
+    if mujoco_falls > MAX_FALLS:
+        out.append(f"{int(mujoco_falls)} MuJoCo falls")
+    return out
+
+
+def verdict(failed: list[str]) -> str:
+    """The table's "carries over" cell: ``yes``, or ``no:`` and the conditions that failed."""
+    return "yes" if not failed else "no: " + ", ".join(failed)
 
 
 
@@ -123,11 +164,14 @@ def _model(text: str, path: str, terrain, dt=None, joint_spring=None, pipeline: 
 
 
 def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, dt: float | None = None,
-                joint_spring=None, pipeline: str | None = None, pick=None, progress=None) -> list[Replay]:
+                joint_spring=None, pipeline: str | None = None, terrain: str | None = None, pick=None,
+                progress=None) -> list[Replay]:
     """Replay the best controller of every run in ``paths`` here and in MuJoCo C (see the module docstring).
 
     ``dt``, ``joint_spring``: replay here with another step or pivot springs (:func:`variant`).  ``pipeline``:
     our side's physics pipeline (None: each run's, as it recorded; MuJoCo's model does not depend on it).
+    ``terrain``: replay every run on this terrain (``--terrain`` syntax), here and in MuJoCo (the same field
+    exported), instead of the one it was evolved on.
     ``pick(run) -> (fitness recorded for it, genome, dict saying how it was chosen)`` chooses another controller
     of each run than its best (``cpgjax transfer --pick validated``: :mod:`cpgjax.experiments.validate`).
     """
@@ -142,11 +186,11 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
             how = None
         else:
             fit, genome, how = pick(run)
-        evaluation, time, terrain = run_setting(run)
+        evaluation, time, evolved_on = run_setting(run)
         text = str(run.meta.get("model_text", ""))
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
-        model = _model(text, str(run.meta.get("model_path", path)), terrain, dt, joint_spring,
+        model = _model(text, str(run.meta.get("model_path", path)), terrain or evolved_on, dt, joint_spring,
                        pipeline or run.pipeline)
         T = float(time or model.time_max)
         c = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
@@ -230,7 +274,7 @@ def table(replays: list[Replay], replay_count: int, here: str | None = None, by:
             f"{r.mujoco['fitness']:.3f}{fell(r.mujoco)} | {r.mujoco['speed']:.3f} | {r.ratio:.2f} | "
             f"{r.ours_jit['mean']:.3f} ± {r.ours_jit['sd']:.3f} ({r.ours_jit['falls']}) | "
             f"{r.mujoco_jit['mean']:.3f} ± {r.mujoco_jit['sd']:.3f} ({r.mujoco_jit['falls']}) | "
-            f"{'yes' if r.carries_over else 'no'} |")
+            f"{verdict(r.failures)} |")
     s = summary(replays, by)
     lines += ["", f"| {'setting' if by == 'cell' else 'evaluation'} | runs | mean fitness here | mean fitness MuJoCo | "
               f"ratio (median) | MuJoCo falls of {n} (mean) | falls here of {n} (mean) | runs that carry over |",
@@ -244,8 +288,8 @@ def table(replays: list[Replay], replay_count: int, here: str | None = None, by:
         lines += ["", f"Spearman rank correlation of fitness, here vs MuJoCo, over these runs' bests: "
                       f"{s['spearman_fitness']:+.2f} (95 % bootstrap interval "
                       f"[{s['spearman_fitness_interval'][0]:+.2f}, {s['spearman_fitness_interval'][1]:+.2f}])"]
-    lines += ["", f"Carries over: MuJoCo fitness ≥ {MIN_RATIO:.0%} of ours and at most {MAX_FALLS} falls in the "
-                  f"{n} jittered MuJoCo replays."]
+    lines += ["", f"Carries over: walks here (no fall, at least {MIN_SPEED:g} m/s) and in MuJoCo at ≥ {MIN_RATIO:.0%} "
+                  f"of its fitness here with at most {MAX_FALLS} falls in the {n} jittered MuJoCo replays."]
     return "\n".join(lines)
 
 
@@ -282,3 +326,54 @@ def plot(replays: list[Replay], out: str) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))   # beside the axes: no point hidden
     fig.savefig(out, dpi=110)
+
+
+def _number(cell: str) -> tuple[float, bool]:
+    """(value, fell) of a table cell such as ``0.284 (fell)`` or ``−0.009``."""
+    text = cell.strip().replace("−", "-")
+    return float(text.split()[0]), "(fell)" in text
+
+
+def read_table(text: str) -> list[dict]:
+    """The per-run rows of a transfer table (``transfer.md``, as :func:`table` writes it): run, evaluation, fitness
+    and speed here and in MuJoCo, whether it fell in each, the falls of the jittered MuJoCo replays (``replays``:
+    how many), and the table's own verdict (``carried``).  Other lines are skipped."""
+    rows, replays = [], None
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("| run | evaluation | fitness here |"):
+            head = next((c for c in cells if c.startswith("MuJoCo, ") and "jittered" in c), "")
+            replays = int(head.split()[1]) if head else None
+            continue
+        if replays is None or len(cells) != 10 or cells[0] in ("run", "---"):
+            continue
+        try:
+            (fh, fell_here), (sh, _), (fm, fell_mj), (sm, _) = (_number(c) for c in cells[2:6])
+            falls = int(cells[8].rsplit("(", 1)[1].rstrip(")"))
+        except (ValueError, IndexError):
+            continue
+        rows.append({"run": cells[0], "evaluation": cells[1], "fitness_here": fh, "speed_here": sh,
+                     "fell_here": fell_here, "fitness_mujoco": fm, "speed_mujoco": sm, "fell_mujoco": fell_mj,
+                     "mujoco_falls": falls, "replays": replays, "carried": cells[9].startswith("yes")})
+    return rows
+
+
+def restate(rows: list[dict]) -> list[dict]:
+    """Each row of :func:`read_table` judged again by today's rule (:func:`failures`): ``failures`` added."""
+    return [r | {"failures": failures(r["fitness_here"], r["speed_here"], r["fell_here"], r["fitness_mujoco"],
+                                      r["mujoco_falls"])} for r in rows]
+
+
+def restate_text(path: str, rows: list[dict]) -> str:
+    """A table's runs judged by today's rule beside the verdict the table recorded: one line per run whose verdict
+    changed or that fails, then the counts."""
+    rows = restate(rows)
+    lines = [f"{path}: {len(rows)} runs"]
+    for r in rows:
+        now = verdict(r["failures"])
+        if r["carried"] != (not r["failures"]):
+            lines.append(f"  {r['run']} ({r['evaluation']}): was {'yes' if r['carried'] else 'no'}, now {now}")
+    old = sum(r["carried"] for r in rows)
+    new = sum(not r["failures"] for r in rows)
+    lines.append(f"  carry over: {new} of {len(rows)} ({RULE}); the table said {old} of {len(rows)}")
+    return "\n".join(lines)

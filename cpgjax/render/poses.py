@@ -29,7 +29,8 @@ class Poses:
 
     t [F] s; pos [F, nb, 3] m; quat [F, nb, 4] (w, x, y, z); ``margin``: a contact vertex this
     close to the terrain (m) is drawn as touching (0 for our penalty contact: touching means
-    below the terrain; MuJoCo's contact spheres' radius there).
+    below the terrain; 0.5 mm for MuJoCo's, whose contact spheres rest with their lowest point where the
+    vertex would: the exported ground lies a sphere's radius lower).
     """
 
     t: np.ndarray
@@ -126,7 +127,7 @@ def record_mujoco(model, coeffs, *, times: np.ndarray, delta: float | None = Non
     import mujoco
 
     from cpgjax.crosscheck.engines import mujoco_run
-    from cpgjax.crosscheck.mjcf import CONTACT_RADIUS, load
+    from cpgjax.crosscheck.mjcf import load
     from cpgjax.episode.fitness import DEFAULT_DELTA
 
     delta = DEFAULT_DELTA if delta is None else delta
@@ -146,7 +147,7 @@ def record_mujoco(model, coeffs, *, times: np.ndarray, delta: float | None = Non
         quat[k] = d.xquat[bids]
     get = lambda key, default: np.asarray(metrics.get(key, default)).ravel()[0]  # noqa: E731
     return Poses(t=np.asarray(times, float), pos=pos, quat=quat, label="MuJoCo C",
-                 fitness=float(get("fitness", np.nan)), margin=CONTACT_RADIUS + 5e-4,
+                 fitness=float(get("fitness", np.nan)), margin=5e-4,
                  fallen=bool(get("fallen", False)), diverged=bool(get("diverged", False)))
 
 

@@ -26,9 +26,9 @@ import numpy as np
 
 from cpgjax.sim.description import Description, DescriptionError, ObjectDef
 from cpgjax.sim.exact.tree import ExactModel, build_exact
-from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
+from cpgjax.sim.rotation import euler_to_mat, mat_to_quat, quat_to_mat_np
 from cpgjax.sim.springs.model import SpringsModel, build_springs
-from cpgjax.sim.terrain import Terrain, make_terrain
+from cpgjax.sim.terrain import Terrain, make_terrain, start_lift
 
 # Defaults chosen by the time-step study (docs/simulator.md).
 DEFAULT_DT = 5.0e-4
@@ -221,6 +221,12 @@ def file_dt(desc: Description, pipeline: str) -> float:
     return desc.time_step or DEFAULT_DT
 
 
+def _contact_points(x0, q0, body, local) -> np.ndarray:
+    """[3, n] world positions of contact vertices (bodies ``body``, offsets ``local`` from their CMs) in a pose."""
+    R = quat_to_mat_np(q0[:, body])                                   # [3, 3, n]
+    return x0[:, body] + np.einsum("ijn,jn->in", R, local)
+
+
 def build_model(desc: Description, *, dt: float | None = None, terrain: str | None = None,
                 pipeline: str | None = None) -> Model:
     """Turn a Description into a Model.  ``terrain`` (CLI syntax) overrides the file's; ``pipeline``
@@ -364,7 +370,11 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     A, B = desc.ground
     alpha, beta = desc.joint_spring or (DEFAULT_ALPHA, DEFAULT_BETA)
     friction_k, friction_b = desc.friction_spring or (DEFAULT_FRICTION_K, DEFAULT_FRICTION_B)
-    tdef = desc.terrain
+    ground = make_terrain(terrain) if terrain else make_terrain(desc.terrain)
+    if not any(fixed):      # the robot starts on its terrain, not in it (a robot with a fixed body stays put)
+        lift = start_lift(ground, _contact_points(x0, q0, pt_body[ct_pt], pt_local[:, ct_pt]))
+        if lift > 0.0:
+            x0 = x0 + np.array([[0.0], [0.0], [lift]])
     model = Model(
         body_names=tuple(names), mass=mass, inertia=inertia, inv_inertia=inv_inertia,
         fixed=np.asarray(fixed, bool), x0=x0, q0=q0, cm_local=np.stack(cms, -1),
@@ -379,7 +389,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         mu_dynamic=float(desc.friction_dynamic if desc.friction_dynamic is not None else desc.friction),
         alpha=float(alpha), beta=float(beta), friction_k=float(friction_k), friction_b=float(friction_b),
         dt=float(dt or file_dt(desc, pipe)),
-        terrain=make_terrain(terrain) if terrain else make_terrain(tdef),
+        terrain=ground,
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,
     )

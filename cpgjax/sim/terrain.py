@@ -15,6 +15,9 @@ Kinds (CLI syntax ``--terrain``, `.wl` syntax ``Terrain``; docs/wl-format.md §3
 
 Outside the matrix the height of the nearest edge is used.
 
+A robot starts on its terrain, never in it: :func:`start_lift` is how far its design pose is raised so
+that no contact vertex starts under the ground (zero on flat ground, which leaves the pose as it is).
+
 :func:`check_terrain` is the one validation of the values, shared by the command line
 (:func:`parse_terrain`, which reads the text above) and the `.wl` parser; both raise
 ``ValueError`` messages that say what is wrong and what is allowed.
@@ -241,6 +244,23 @@ def make_terrain(spec: str | TerrainDef | None) -> Terrain:
     xs, ys = _grid(EXTENT_X, EXTENT_Y, cell)
     h = np.random.default_rng(seed).uniform(0.0, rng_range, size=(len(ys), len(xs)))
     return Terrain(text, h, xs[0], ys[0], cell, cell)
+
+
+def start_lift(terrain: Terrain, points) -> float:
+    """How far [m] to raise a robot whose contact vertices stand at ``points`` [3, n] so that none is under
+    the ground: ``max(0, max_k z_g(x_k, y_k) - z_k)``.  The vertex with the most ground above it then touches
+    the surface and the others stand on or above it.  0 on flat ground (and for a robot without contacts).
+
+    Without it, a robot whose `.wl` pose stands on z = 0 started with its feet up to RANGE inside a
+    ``rough:RANGE`` field: eq. 3.7 pushed them out with ``A d`` (400 N per foot at 4 mm), and in MuJoCo, whose
+    heightfield is a union of prisms, a foot sphere whose centre starts below a prism's top is pushed sideways
+    by the prism's wall and stays stuck in the ground (docs/crosscheck.md).
+    """
+    pts = np.asarray(points, float).reshape(3, -1)
+    if terrain.flat or pts.shape[1] == 0:
+        return 0.0
+    zg = terrain.height_np(pts[0], pts[1])
+    return float(max(0.0, np.max(zg - pts[2])))
 
 
 def height_and_normal(terrain: Terrain, x, y):

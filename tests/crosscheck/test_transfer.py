@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from cpgjax import cli
@@ -126,3 +127,84 @@ def test_a_run_is_named_by_its_sweep_cell_and_seed_or_else_by_its_file():
     assert replay("runs/thesis/g0.01-p4/s3.h5", "g0.01-p4", 3).label == "g0.01-p4/s3"
     assert replay("runs/quickstart.h5", "runs", 0).label == "quickstart"        # not "runs/s0"
     assert replay("s7.h5", "", 0).label == "s7"
+
+
+def _replay(here=0.25, speed=0.25, fell=False, there=0.24, falls=0):
+    jit = {"mean": there, "sd": 0.0, "falls": falls, "speed": there}
+    return transfer.Replay(run="r.h5", evaluation="robust", cell="c", seed=0, fitness_in_run=here,
+                           ours={"fitness": here, "speed": speed, "distance": 10 * speed, "fallen": fell},
+                           mujoco={"fitness": there, "speed": there, "distance": 10 * there, "fallen": False},
+                           ours_jit=jit | {"mean": here, "falls": 0}, mujoco_jit=jit)
+
+
+@pytest.mark.parametrize("changes, failed", [
+    ({}, []),                                                     # walks here, 96 % in MuJoCo, no falls
+    ({"fell": True}, ["fell here"]),                              # fell here (it still went 0.25 m/s)
+    ({"speed": 0.05, "here": 0.04, "there": 0.04}, ["0.05 m/s here"]),   # barely moves, alike in both
+    ({"there": 0.15}, ["MuJoCo 60%"]),                            # slower in MuJoCo
+    ({"falls": 3}, ["3 MuJoCo falls"]),                           # falls in 3 of the jittered MuJoCo replays
+    ({"speed": 0.1, "falls": 2, "there": 0.175}, []),             # each bound itself carries over
+])
+def test_a_gait_carries_over_when_it_walks_here_and_in_mujoco(changes, failed):
+    r = _replay(**changes)
+    assert r.failures == failed and r.carries_over == (not failed)
+    row = transfer.table([r], 32).splitlines()[2]
+    assert row.endswith(f"| {'yes' if not failed else 'no: ' + ', '.join(failed)} |"), row
+
+
+def test_a_gait_that_fell_here_and_walks_in_mujoco_no_longer_carries_over():
+    """The case the rule was changed for: fitness 0.001 here (fell), 0.207 in MuJoCo, ratio 181."""
+    r = _replay(here=0.001, speed=-0.02, fell=True, there=0.207)
+    assert r.ratio > 100 and r.failures == ["fell here", "-0.02 m/s here"]
+    assert transfer.failures(-0.03, 0.2, False, 0.1, 0) == ["MuJoCo -"]     # no score here: no ratio
+
+
+def test_a_table_is_restated_by_todays_rule(tmp_path, capsys):
+    runs = [_replay(), _replay(here=0.001, speed=-0.02, fell=True, there=0.207), _replay(falls=9)]
+    text = transfer.table(runs, 32).replace("| no: fell here, -0.02 m/s here |", "| yes |")   # the old verdict
+    rows = transfer.read_table("Here: exact pipeline.\n\n" + text)
+    assert [(r["fitness_here"], r["fell_here"], r["speed_here"], r["mujoco_falls"], r["carried"]) for r in rows] == [
+        (0.25, False, 0.25, 0, True), (0.001, True, -0.02, 0, True), (0.25, False, 0.25, 9, False)]
+    assert [r["failures"] for r in transfer.restate(rows)] == [[], ["fell here", "-0.02 m/s here"], ["9 MuJoCo falls"]]
+    path = tmp_path / "transfer.md"
+    path.write_text(text)
+    assert cli.main(["transfer", "--restate", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "was yes, now no: fell here, -0.02 m/s here" in out and "carry over: 1 of 3" in out and "said 2 of 3" in out
+    (tmp_path / "empty.md").write_text("no table here\n")
+    assert cli.main(["transfer", "--restate", str(tmp_path / "empty.md")]) == 2
+    assert "empty.md: no per-run rows of a transfer table" in capsys.readouterr().err
+
+
+def test_transfer_replays_on_a_given_terrain_in_both_engines(runs, capsys, monkeypatch):
+    """--terrain reaches both engines' models (the simulations themselves: the slow test below)."""
+    seen = []
+
+    def walks(n):
+        return {"fitness": np.full(n, 0.2), "speed": np.full(n, 0.2), "distance": np.full(n, 2.0),
+                "fallen": np.zeros(n, bool)}
+
+    def fake_simulate(model, C, time):
+        seen.append(("ours", model.terrain.spec))
+        return walks(len(C))
+
+    def fake_mujoco(model, C, time, mj):
+        seen.append(("mujoco", model.terrain.spec))
+        return walks(len(C)), None, 0.0
+
+    monkeypatch.setattr(transfer, "simulate", fake_simulate)
+    monkeypatch.setattr(transfer, "mujoco_run", fake_mujoco)
+    monkeypatch.setattr(transfer, "load", lambda model: None)
+    (r,) = transfer.replay_runs([runs / "thesis.h5"], replays=1, terrain="rough:0.01:0.1:3")
+    assert seen == [("ours", "rough:0.01:0.1:3"), ("mujoco", "rough:0.01:0.1:3")] and r.carries_over
+    parser = cli.build_parser()
+    assert "rough:0.02:0.1:SEED" in parser._subparsers._group_actions[0].choices["transfer"].format_help()
+    assert cli.main(["transfer", str(runs), "--terrain", "rough:-1"]) == 2
+    assert "--terrain" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_run_replayed_on_a_rough_field_scores_otherwise_than_on_its_own(runs):
+    (r,) = transfer.replay_runs([runs / "thesis.h5"], replays=1, terrain="rough:0.01:0.1:3")
+    assert r.ours["fitness"] != pytest.approx(r.fitness_in_run, abs=1e-4)
+    assert np.isfinite(r.mujoco["fitness"]) and r.pipeline == "springs"

@@ -76,3 +76,22 @@ def test_cli_errors_name_the_spec_and_give_an_example():
 def test_a_terrain_def_made_in_code_is_checked_too(tdef, message):
     with pytest.raises(ValueError, match=message.replace("|", r"\|").replace("(", r"\(")):
         make_terrain(tdef)
+
+
+def test_a_robot_starts_on_its_terrain_never_in_it():
+    """On a rough field the quadruped's `.wl` pose (feet on z = 0) would stand up to RANGE inside the ground: it is
+    raised as a whole until its contact vertex with the most ground above it touches; elsewhere it is where it was."""
+    from cpgjax.io.wl import load_model
+    from cpgjax.sim.model import _contact_points
+    from cpgjax.sim.terrain import start_lift
+
+    flat = load_model("models/quadruped.wl")
+    for spec in ("ramp:0.1", "bump:0.02", "rough:0"):
+        assert np.array_equal(load_model("models/quadruped.wl", terrain=spec).x0, flat.x0), spec
+    m = load_model("models/quadruped.wl", terrain="rough:0.04:0.1:3")
+    feet = _contact_points(m.x0, m.q0, m.pt_body[m.ct_pt], m.pt_local[:, m.ct_pt])
+    clearance = feet[2] - m.terrain.height_np(feet[0], feet[1])
+    assert clearance.min() == pytest.approx(0.0, abs=1e-9) and start_lift(m.terrain, feet) == 0.0
+    lift = m.x0[2] - flat.x0[2]
+    assert np.ptp(lift) < 1e-12 and 0.01 < lift[0] <= 0.04 and np.array_equal(m.x0[:2], flat.x0[:2])
+    assert start_lift(make_terrain("flat"), feet - 1.0) == 0.0          # flat ground: never moved
