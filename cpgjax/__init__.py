@@ -4,4 +4,4 @@ from cpgjax import _xla
 
 _xla.configure()
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"

@@ -48,3 +48,14 @@ def test_the_check_catches_a_missing_file_and_a_missing_heading(tmp_path, monkey
         assert "p.md#title" not in str(e)
     else:
         raise AssertionError("the check passed broken links")
+
+
+def test_the_version_is_written_once_and_quoted_alike():
+    """cpgjax/__init__.py holds the version (pyproject.toml reads it); the citation files quote it."""
+    import cpgjax
+
+    v = cpgjax.__version__
+    assert re.fullmatch(r"\d+\.\d+\.\d+", v)
+    assert f"\nversion: {v}\n" in (ROOT / "CITATION.cff").read_text()
+    assert f"version = {{{v}}}," in (ROOT / "README.md").read_text()
+    assert 'dynamic = ["version"]' in (ROOT / "pyproject.toml").read_text()

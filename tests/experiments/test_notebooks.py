@@ -117,3 +117,15 @@ def test_repertoire_notebook_tiny(tmp_path):
     text = executed.read_text()
     assert "scale tiny" in text and "Traceback" not in text and "cells filled after 32 evaluations" in text
     assert "trial 1: cell" in text
+
+
+def test_the_notebooks_in_the_repository_hold_no_outputs():
+    """notebooks/ holds the notebooks' source; `cpgjax notebook` saves executed copies under runs/notebooks/ and the
+    figures and tables go to docs/ (outputs kept here would go stale with the code that made them)."""
+    import json
+
+    for name in sorted(os.listdir(os.path.join(ROOT, "notebooks"))):
+        if name.endswith(".ipynb"):
+            nb = json.load(open(os.path.join(ROOT, "notebooks", name)))
+            held = [i for i, c in enumerate(nb["cells"]) if c.get("outputs") or c.get("execution_count")]
+            assert not held, f"notebooks/{name}: cells {held} hold outputs (clear them: the source only)"
