@@ -1,4 +1,4 @@
-"""MAP-Elites and its iso+line variant on the :class:`~cpgjax.optim.algorithm.Algorithm` adapter (beyond the thesis).
+"""MAP-Elites and its iso+line variant as an :class:`~cpgjax.optim.algorithm.Algorithm` (beyond the thesis).
 
 Quality-diversity search (Mouret & Clune, *Illuminating search spaces by mapping elites*, 2015; Cully et
 al., Nature 2015): the behaviour space (:mod:`cpgjax.episode.descriptors`) is cut into a grid of cells and
@@ -41,7 +41,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.optim.algorithm import Algorithm
+from cpgjax.optim.algorithm import Algorithm, Scores
 from cpgjax.optim.problem import Problem
 
 METHODS = ("map-elites", "iso-line")
@@ -171,7 +171,9 @@ def cell_centres(grid: Grid) -> np.ndarray:
     return np.stack([m.reshape(-1) for m in mesh], -1).astype(np.float32)
 
 
-class MEState(NamedTuple):
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class MEState:
     """The archive (per cell: elite genome, fitness, descriptor, filled) and the cells of the last batch."""
 
     genomes: jax.Array       # [C, G]
@@ -235,34 +237,44 @@ def fall_metric(problem: Problem, cfg: MEConfig) -> str | None:
     return None if cfg.keep_fallen else problem.meta.get("fall_metric")
 
 
-def mapelites_algorithm(problem: Problem, cfg: MEConfig, grid: Grid) -> Algorithm:
-    """MAP-Elites (``cfg.method``) on ``problem`` over ``grid`` as an :class:`Algorithm`.
+@dataclass(frozen=True, kw_only=True, eq=False)
+class MapElites(Algorithm):
+    """MAP-Elites (``cfg.method``) over ``grid`` as an :class:`~cpgjax.optim.algorithm.Algorithm`.
 
-    The problem's metrics named ``grid.names`` are the descriptors (``Algorithm.descriptor``).  The state
-    is the archive (:class:`MEState`); ``propose`` varies it (:func:`vary`), ``update`` inserts the batch.
-    A child that fell (the problem's :func:`fall_metric` non-zero) is never inserted: a robot lying on its
-    side "turns" and "moves" as it tumbles, and its descriptor says nothing of a gait.
+    The state is the archive (:class:`MEState`); ``ask`` varies it (:func:`vary`), ``tell`` inserts the batch
+    with the descriptors it reads from the scores by name (``grid.names``).  A child that fell (its score
+    ``fall`` non-zero) is never inserted: a robot lying on its side "turns" and "moves" as it tumbles, and its
+    descriptor says nothing of a gait.
     """
-    lo, hi, G, N = float(problem.lower), float(problem.upper), problem.n_genes, cfg.batch
-    D = len(grid.names)
-    fall = fall_metric(problem, cfg)
 
-    def init(params, key):
-        return empty_archive(grid.n_cells, G, D, N)
+    cfg: MEConfig
+    grid: Grid
+    fall: str | None      # the score that flags a fall (:func:`fall_metric`); None: insert fallen robots too
+    n_genes: int
+    lower: float
+    upper: float
 
-    def propose(params, state, key, gen):
-        return vary(cfg, state, key, gen, N, lo, hi)
+    def init(self, params, key: jax.Array) -> MEState:
+        return empty_archive(self.grid.n_cells, self.n_genes, len(self.grid.names), self.population)
 
-    def update(params, state, genomes, fitness, diverged, key, gen, desc):
-        valid = ~diverged if fall is None else ~diverged & (desc[:, D] == 0)
-        desc = desc[:, :D]
-        cells = cell_index(grid, desc)
-        return insert(state, genomes, fitness, desc, cells, valid)
+    def ask(self, params, state: MEState, key: jax.Array, gen) -> tuple[jax.Array, MEState]:
+        return vary(self.cfg, state, key, gen, self.population, self.lower, self.upper), state
 
-    return Algorithm(cfg.method, N, cfg.generations, cfg.to_dict(), (), init, propose, update,
-                     rate=lambda params, gen: jnp.float32(jnp.nan),
-                     resumable_changes=("chunk", "evaluations"),
-                     descriptor=tuple(grid.names) + ((fall,) if fall else ()))
+    def tell(self, params, state: MEState, genomes: jax.Array, scores: Scores, key: jax.Array, gen) -> MEState:
+        valid = ~scores["diverged"]
+        if self.fall is not None:
+            valid = valid & (scores[self.fall] == 0)
+        desc = jnp.stack([scores[k] for k in self.grid.names], -1)
+        return insert(state, genomes, scores["fitness"], desc, cell_index(self.grid, desc), valid)
+
+
+def mapelites_algorithm(problem: Problem, cfg: MEConfig, grid: Grid) -> MapElites:
+    """MAP-Elites (``cfg.method``) on ``problem`` over ``grid``: the problem's outputs named ``grid.names`` are
+    the descriptors, its :func:`fall_metric` the fall."""
+    lo, hi = float(problem.lower), float(problem.upper)
+    return MapElites(kind=cfg.method, population=cfg.batch, generations=cfg.generations, config=cfg.to_dict(),
+                     resumable_changes=("chunk", "evaluations"), cfg=cfg, grid=grid, fall=fall_metric(problem, cfg),
+                     n_genes=problem.n_genes, lower=lo, upper=hi)
 
 
 _insert_jit = jax.jit(insert)
