@@ -156,6 +156,21 @@ def _unpacker(template):
     return unpack
 
 
+def _through_stored(strategy):
+    """evosax's state through the two vectors a run file stores (:func:`_pack`, and back) behind an optimisation
+    barrier, as :meth:`EvolutionStrategy.tell` takes it in and gives it out.
+
+    Why (compiler behaviour, jax 0.10.2): the strategy's state used to be carried from one generation to the next
+    in this packed form.  Carried as its own pytree, XLA fused evosax's arithmetic otherwise and rounded some of
+    it differently (measured: 7 of the 62 floats of sep-CMA-ES's state after generation 1, relative 3e-7; then
+    other samples), so that runs no longer gave the numbers of the runs made before; without the barrier XLA
+    folds the round trip away.  With it, the program between the barriers is the one compiled before, and so
+    is every number of a run.
+    """
+    real, count = jax.lax.optimization_barrier(_pack(strategy))
+    return _unpacker(strategy)(real, count)
+
+
 def reflect(x: jax.Array, lower: float, upper: float) -> jax.Array:
     """``x`` mirrored into ``[lower, upper]`` at its faces (periodically: a mirror of a mirror ...)."""
     w = upper - lower
@@ -192,9 +207,10 @@ class EvolutionStrategy(Algorithm):
         k_tell, k_ask = jax.random.split(key)
         fitness = scores["fitness"]
         loss = jnp.where(scores["diverged"] | ~jnp.isfinite(fitness), jnp.nan, -fitness)
-        s, _ = self.strategy.tell(k_tell, state.samples, loss, state.strategy, self.strategy_params)
+        s, _ = self.strategy.tell(k_tell, state.samples, loss, _through_stored(state.strategy), self.strategy_params)
         s = s.replace(mean=jnp.clip(s.mean, self.lower, self.upper))
-        return self._ask(k_ask, s)
+        new = self._ask(k_ask, s)
+        return ESState(new.samples, _through_stored(new.strategy))
 
     def save(self, state: ESState) -> dict[str, jax.Array]:
         """``samples``, and evosax's state as ``real`` [S] float32 (its float leaves, flattened in evosax's
