@@ -77,23 +77,6 @@ def test_diverged_samples_never_pull_the_search():
     assert all(np.all(np.isfinite(np.asarray(u))) for u in a if jnp.issubdtype(u.dtype, jnp.floating))
 
 
-def test_the_run_file_stores_evosax_state_as_two_vectors_and_resume_rebuilds_it():
-    """``save`` packs evosax's state into its float leaves and its integer leaves (the layout of every run file
-    written so far); ``load`` rebuilds the very same state from them."""
-    algo = es.ESConfig(method="cmaes", population=6).algorithm(analytic_problem("analytic:sphere:3"))
-    state = algo.init((), jax.random.key(4))
-    stored = jax.device_get(algo.save(state))
-    assert set(stored) == {"samples", "real", "count"} and stored["real"].dtype == np.float32
-    assert stored["count"].dtype == np.int32
-    leaves = jax.tree.leaves(state.strategy)
-    assert stored["real"].size == sum(u.size for u in leaves if jnp.issubdtype(u.dtype, jnp.floating))
-    back = algo.load(stored, jax.eval_shape(algo.init, (), jax.random.key(0)))
-    assert jax.tree.structure(back) == jax.tree.structure(state)
-    for u, v in zip(jax.tree.leaves(back), jax.tree.leaves(state), strict=True):
-        assert u.dtype == v.dtype
-        np.testing.assert_array_equal(np.asarray(u), np.asarray(v))
-
-
 @pytest.mark.parametrize("method", es.METHODS)
 def test_stop_and_resume_equals_uninterrupted(tmp_path, method):
     problem = analytic_problem("analytic:diverging:10")        # diverged samples along the way, too
@@ -104,7 +87,9 @@ def test_stop_and_resume_equals_uninterrupted(tmp_path, method):
     assert run_search(problem, cfg, part, resume=True)["completed"] == 12
     a, b = read_run(full), read_run(part)
     same_rows(a, b)
+    # the run file keeps its layout: evosax's state as its float and its integer leaves (EvolutionStrategy.save)
     assert a.kind == method and a.diverged.any() and set(a.state) == {"samples", "real", "count"}
+    assert a.state["real"].dtype == np.float32 and a.state["count"].dtype == np.int32
 
 
 def test_config_is_checked():
