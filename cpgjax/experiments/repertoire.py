@@ -58,14 +58,6 @@ def grid_of(attrs: dict) -> me.Grid:
                    tuple(int(b) for b in g["bins"]))
 
 
-def problem_grid(problem: Problem, cfg: me.MEConfig) -> me.Grid:
-    """The grid of ``cfg`` over the problem's descriptor (``meta["descriptor_metrics"]``)."""
-    names = tuple(json.loads(problem.meta.get("descriptor_metrics") or "[]"))
-    if not names:
-        raise ValueError(f"{problem.name}: the problem has no behaviour descriptor (a .wl model is needed)")
-    return me.make_grid(cfg, names)
-
-
 def _valid(run) -> np.ndarray:
     """[G, N]: the children insertion considered (not diverged; not fallen unless the run kept them)."""
     ok = ~np.asarray(run.diverged)
@@ -100,8 +92,8 @@ def run_repertoire(problem: Problem, cfg: me.MEConfig, out: str | os.PathLike[st
 def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callback, allow_other_machine):
     from tqdm.auto import tqdm
 
-    grid = problem_grid(problem, cfg)
-    algo = me.mapelites_algorithm(problem, cfg, grid)
+    algo = cfg.algorithm(problem)
+    grid = algo.grid
     k_init, k_prop, k_upd = run_keys(cfg.seed)
     static = (("grid", _grid_json(grid)),) + tuple(sorted((k, json.dumps(v)) for k, v in cfg.to_dict().items()
                                                           if k not in ("seed", "chunk", "evaluations")))

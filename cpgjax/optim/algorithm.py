@@ -36,7 +36,7 @@ import abc
 import dataclasses
 from collections.abc import Mapping, Sequence
 from functools import partial
-from typing import Any, Protocol
+from typing import Any, Generic, Protocol, TypeVar
 
 import jax
 import jax.numpy as jnp
@@ -46,9 +46,11 @@ from cpgjax.optim.problem import Problem
 Scores = Mapping[str, jax.Array]
 """A generation's scores by name: ``fitness``, ``diverged`` and the problem's other outputs (module docstring)."""
 
+S = TypeVar("S")   # an algorithm's state: a frozen dataclass registered as a pytree
+
 
 @dataclasses.dataclass(frozen=True, kw_only=True, eq=False)
-class Algorithm(abc.ABC):
+class Algorithm(abc.ABC, Generic[S]):
     """A population-based optimiser as pure methods over a typed state (see the module docstring).
 
     Fields: ``kind`` (the run file's kind: ``ga``, ``random``, ``amc``, an evosax method, ``map-elites``...),
@@ -65,16 +67,16 @@ class Algorithm(abc.ABC):
     resumable_changes: tuple[str, ...] = ("chunk",)
 
     @abc.abstractmethod
-    def init(self, params: Any, key: jax.Array) -> Any:
+    def init(self, params: Any, key: jax.Array) -> S:
         """The state before generation 0."""
 
     @abc.abstractmethod
-    def ask(self, params: Any, state: Any, key: jax.Array, gen: jax.Array) -> tuple[jax.Array, Any]:
+    def ask(self, params: Any, state: S, key: jax.Array, gen: jax.Array) -> tuple[jax.Array, S]:
         """The genomes [population, G] of generation ``gen``, and the state they leave."""
 
     @abc.abstractmethod
-    def tell(self, params: Any, state: Any, genomes: jax.Array, scores: Scores, key: jax.Array,
-             gen: jax.Array) -> Any:
+    def tell(self, params: Any, state: S, genomes: jax.Array, scores: Scores, key: jax.Array,
+             gen: jax.Array) -> S:
         """The state after generation ``gen``'s ``genomes`` scored ``scores`` (by name)."""
 
     def mutation_rate(self, params: Any, gen: jax.Array) -> jax.Array:
@@ -82,18 +84,18 @@ class Algorithm(abc.ABC):
         has one."""
         return jnp.float32(jnp.nan)
 
-    def save(self, state: Any) -> dict[str, jax.Array]:
+    def save(self, state: S) -> dict[str, jax.Array]:
         """The arrays a run file stores of ``state`` after a generation, by name (default: its fields)."""
         return {f.name: getattr(state, f.name) for f in dataclasses.fields(state)}
 
-    def load(self, stored: Mapping[str, Any], like: Any) -> Any:
+    def load(self, stored: Mapping[str, Any], like: S) -> S:
         """The state :meth:`save` stored (``--resume``); ``like`` is a state of the right shapes
         (``jax.eval_shape`` of :meth:`init`)."""
         return type(like)(**{k: jnp.asarray(stored[k], s.dtype) for k, s in self.save(like).items()})
 
 
 class Config(Protocol):
-    """A configuration that makes its algorithm (``GAConfig``, ``SearchConfig``, ``ESConfig``)."""
+    """A configuration that makes its algorithm (``GAConfig``, ``SearchConfig``, ``ESConfig``, ``MEConfig``)."""
 
     seed: int
     chunk: int
@@ -103,7 +105,7 @@ class Config(Protocol):
 
 def make_algorithm(problem: Problem, cfg: Config) -> Algorithm:
     """The :class:`Algorithm` of a configuration on ``problem`` (the GA, a baseline search, an evolution
-    strategy: each configuration class makes its own)."""
+    strategy, MAP-Elites: each configuration class makes its own)."""
     return cfg.algorithm(problem)
 
 

@@ -150,7 +150,7 @@ def amc_update(state: AMCState, genomes: jax.Array, fitness: jax.Array, diverged
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class RandomSearch(Algorithm):
+class RandomSearch(Algorithm[RandomState]):
     """Fig. 6.10 as an :class:`~cpgjax.optim.algorithm.Algorithm`: every batch uniform in the hypercube."""
 
     cfg: SearchConfig
@@ -170,7 +170,7 @@ class RandomSearch(Algorithm):
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class AdaptiveMonteCarlo(Algorithm):
+class AdaptiveMonteCarlo(Algorithm[AMCState]):
     """Fig. 6.11 as an :class:`~cpgjax.optim.algorithm.Algorithm` (the module docstring's reading)."""
 
     cfg: SearchConfig

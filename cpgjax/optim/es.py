@@ -179,7 +179,7 @@ def reflect(x: jax.Array, lower: float, upper: float) -> jax.Array:
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class EvolutionStrategy(Algorithm):
+class EvolutionStrategy(Algorithm[ESState]):
     """A strategy of ``evosax`` as an :class:`~cpgjax.optim.algorithm.Algorithm` (module docstring).
 
     Its settings are compile-time constants (every run of a sweep group shares them), so ``params`` is

@@ -261,7 +261,7 @@ def reproduce(key: jax.Array, population: jax.Array, fitness: jax.Array, params:
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class GeneticAlgorithm(Algorithm):
+class GeneticAlgorithm(Algorithm[GAState]):
     """The GA as an :class:`~cpgjax.optim.algorithm.Algorithm`: ask for the population, tell :func:`reproduce`.
 
     Made by :meth:`GAConfig.algorithm`; its run-varying settings are ``params`` (:class:`GAParams`), so runs of

@@ -33,6 +33,7 @@ how ``cpgjax repertoire --resume`` continues a run exactly without storing the a
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -114,6 +115,10 @@ class MEConfig:
         d["cells"], d["bounds"] = list(self.cells), [list(b) for b in self.bounds]
         return d
 
+    def algorithm(self, problem: Problem) -> MapElites:
+        """This MAP-Elites on ``problem``, over the grid of its descriptor (:func:`problem_grid`)."""
+        return mapelites_algorithm(problem, self, problem_grid(problem, self))
+
 
 class Grid(NamedTuple):
     """The cells of the behaviour space: ``bins`` per dimension between ``lower`` and ``upper``."""
@@ -145,6 +150,14 @@ def make_grid(cfg: MEConfig, names: tuple[str, ...]) -> Grid:
     lo = np.asarray([b[0] for b in bounds], np.float32)
     hi = np.asarray([b[1] for b in bounds], np.float32)
     return Grid(tuple(names), lo, hi, bins)
+
+
+def problem_grid(problem: Problem, cfg: MEConfig) -> Grid:
+    """The grid of ``cfg`` over the problem's descriptor: the outputs named in ``meta["descriptor_metrics"]``."""
+    names = tuple(json.loads(problem.meta.get("descriptor_metrics") or "[]"))
+    if not names:
+        raise ValueError(f"{problem.name}: the problem has no behaviour descriptor (a .wl model is needed)")
+    return make_grid(cfg, names)
 
 
 def cell_index(grid: Grid, desc):
@@ -238,13 +251,15 @@ def fall_metric(problem: Problem, cfg: MEConfig) -> str | None:
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class MapElites(Algorithm):
+class MapElites(Algorithm[MEState]):
     """MAP-Elites (``cfg.method``) over ``grid`` as an :class:`~cpgjax.optim.algorithm.Algorithm`.
 
     The state is the archive (:class:`MEState`); ``ask`` varies it (:func:`vary`), ``tell`` inserts the batch
     with the descriptors it reads from the scores by name (``grid.names``).  A child that fell (its score
     ``fall`` non-zero) is never inserted: a robot lying on its side "turns" and "moves" as it tumbles, and its
-    descriptor says nothing of a gait.
+    descriptor says nothing of a gait.  Its run file (:mod:`cpgjax.experiments.repertoire`) does not store the
+    archive (:meth:`save`'s fields) row by row but each batch's cells, the filled count and the QD-score, and
+    rebuilds the archive from the rows (:func:`replay`).
     """
 
     cfg: MEConfig

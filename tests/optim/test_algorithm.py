@@ -44,7 +44,7 @@ class ClimbState:
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True, eq=False)
-class HillClimber(Algorithm):
+class HillClimber(Algorithm[ClimbState]):
     """A toy written against the contract alone: Gaussian steps around the best genome so far, of a per-run
     traced size (``params``)."""
 
