@@ -265,19 +265,12 @@ def _study(args: argparse.Namespace, cfg) -> int:
     for row in r["rows"]:
         print(f"{row['damage']:<22} {row['seed']:>4} {row['elites']:>6} {row['R']:>8.4f} {fmt(row['ite_trials']):>11} "
               f"{fmt(row.get('ga_evaluations')):>8}   {row['ite_stop_trial']:>2}, "
-              f"{row['ite_stop_fitness'] / row['R']:.2f}")
-    import numpy as np
-
-    for d in dict.fromkeys(row["damage"] for row in r["rows"]):
-        it = [row["ite_trials"] for row in r["rows"] if row["damage"] == d]
-        ga = [row.get("ga_evaluations") for row in r["rows"] if row["damage"] == d]
-        med = lambda xs: "not reached" if any(x is None for x in xs) and sum(x is None for x in xs) * 2 >= len(xs) \
-            else f"{np.median([x if x is not None else np.inf for x in xs]):g}"  # noqa: E731
-        own = [row for row in r["rows"] if row["damage"] == d]
-        print(f"{d}: median IT&E trials {med(it)}" + (f", median GA evaluations {med(ga)}" if args.ga_generations
-                                                       else "")
-              + f"; IT&E's own stop: median {np.median([w['ite_stop_trial'] for w in own]):g} trials, median "
-                f"best/R {np.median([w['ite_stop_fitness'] / w['R'] for w in own]):.2f}")
+              f"{row['ite_stop_share']:.2f}")
+    count = lambda v: "not reached" if v is None else f"{v:g}"  # noqa: E731
+    for m in r["medians"]:
+        print(f"{m['damage']}: median IT&E trials {count(m['ite_trials'])}"
+              + (f", median GA evaluations {count(m['ga_evaluations'])}" if "ga_evaluations" in m else "")
+              + f"; IT&E's own stop: median {m['ite_stop_trial']:g} trials, median best/R {m['ite_stop_share']:.2f}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)

@@ -11,8 +11,8 @@ repertoire's length, terrain and pipeline; the search sees only the trial's fitn
   of that elite), the best of them;
 - **IT&E**: the number of trials until the best trial reaches ``level x R`` (default 70 %), with the
   stopping rule off so that the count is not cut short, and where the stopping rule stops, within the
-  adaptation's own budget of trials (``ite_stop_trial``, ``ite_stop_fitness``: what a robot running
-  ``cpgjax adapt`` with the same settings gets);
+  adaptation's own budget of trials (``ite_stop_trial``, ``ite_stop_fitness`` and its share of ``R``,
+  ``ite_stop_share``: what a robot running ``cpgjax adapt`` with the same settings gets);
 - **the GA from scratch** (the thesis's GA, :mod:`cpgjax.optim.ga`, its seed the repertoire's) on the
   damaged robot: the number of evaluations until its best so far reaches the same level.
 
@@ -28,9 +28,10 @@ full-scale exact-joint quadruped repertoires the damaged fitness of near neighbo
 in the genome space as in the duty descriptor's, and ``"both"`` brings the lost hind leg and every other damage
 measured within a median of 20 trials (docs/results/repertoire.md, damage recovery at full scale).
 
-Each row also keeps ``scores``, every elite's damaged fitness (in the order of ``Repertoire.cells``; None where
-the episode diverged), so that other IT&E settings can be measured on the same case without simulating again
-(IT&E only reads them).
+Per damage, :func:`study_medians` summarises the rows over the repertoires (the medians the command prints
+and docs/repertoire.md's tables quote).  Each row also keeps ``scores``, every elite's damaged fitness (in
+the order of ``Repertoire.cells``; None where the episode diverged), so that other IT&E settings can be
+measured on the same case without simulating again (IT&E only reads them).
 """
 
 from __future__ import annotations
@@ -175,11 +176,38 @@ def first_reaching(best_so_far: np.ndarray, level: float) -> int | None:
     return int(hit[0]) + 1 if hit.size else None
 
 
+def median_count(counts) -> float | None:
+    """The median of counts where ``None`` means "never reached" (an infinite count): ``None`` when at least half
+    of them are, else the median with each ``None`` counted as infinite."""
+    counts = list(counts)
+    if not counts or 2 * sum(c is None for c in counts) >= len(counts):
+        return None
+    return float(np.median([np.inf if c is None else c for c in counts]))
+
+
+def study_medians(rows: list[dict]) -> list[dict]:
+    """Per damage, in the order of ``rows`` (:func:`study`'s), over its repertoires: ``ite_trials`` and, where
+    the GA from scratch ran, ``ga_evaluations``, the median counts to the level (:func:`median_count`: ``None``,
+    not reached in at least half of them); ``ite_stop_trial`` and ``ite_stop_share``, the medians of the trials
+    after which IT&E's own stopping rule stopped and of its best trial then as a share of ``R`` (the rows')."""
+    out = []
+    for damage in dict.fromkeys(r["damage"] for r in rows):
+        own = [r for r in rows if r["damage"] == damage]
+        m = {"damage": damage, "repertoires": len(own), "ite_trials": median_count(r["ite_trials"] for r in own)}
+        if any("ga_budget" in r for r in own):
+            m["ga_evaluations"] = median_count(r.get("ga_evaluations") for r in own)
+        m["ite_stop_trial"] = float(np.median([r["ite_stop_trial"] for r in own]))
+        m["ite_stop_share"] = float(np.median([r["ite_stop_share"] for r in own]))
+        out.append(m)
+    return out
+
+
 def study(model: str, repertoires: list[str], damages: list[str], *, level: float = 0.7,
           trials: int = 50, ga_generations: int = 0, ga_population: int = 20, progress: bool = False,
           cfg: ITEConfig = ADAPT_DEFAULTS, space: str = "descriptor", fit: bool = True) -> dict:
     """The table of docs/results/repertoire.md: per damage and repertoire, ``R``, IT&E's trials and the GA's
-    evaluations to reach ``level x R`` (see the module docstring).  IT&E runs with ``cfg`` (its GP and
+    evaluations to reach ``level x R`` (see the module docstring), and per damage their medians
+    (``medians``: :func:`study_medians`).  IT&E runs with ``cfg`` (its GP and
     search) over ``space`` (:func:`search_space`): at most ``trials`` trials with the stopping rule off, at most
     ``cfg.trials`` with it on."""
     from tqdm.auto import tqdm
@@ -212,7 +240,8 @@ def study(model: str, repertoires: list[str], damages: list[str], *, level: floa
                    "elites": int(len(idx)), "R": R, "intact_best": float(rep.fitness[idx].max()),
                    "ite_trials": first_reaching(ys, level * R), "ite_best": float(ys[-1]),
                    "ite_trials_run": len(ys), "ite_stop_trial": len(stopped["trials"]),
-                   "ite_stop_fitness": stopped["best_fitness"], "space": space, "rho": rcfg.rho,
+                   "ite_stop_fitness": stopped["best_fitness"], "ite_stop_share": stopped["best_fitness"] / R,
+                   "space": space, "rho": rcfg.rho,
                    "noise": rcfg.noise,
                    "scores": [None if not np.isfinite(v) else float(v) for v in scores]}
             if ga_generations:
@@ -226,4 +255,4 @@ def study(model: str, repertoires: list[str], damages: list[str], *, level: floa
             rows.append(row)
             bar.update(1)
     bar.close()
-    return {"model": os.fspath(model), "level": level, "rows": rows}
+    return {"model": os.fspath(model), "level": level, "rows": rows, "medians": study_medians(rows)}

@@ -1,7 +1,7 @@
 """Drivers: run the GA (:func:`run_ga`) or a baseline search (:func:`run_search`) into an HDF5 file.
 
-Every algorithm goes through the adapter of :mod:`cpgjax.optim.algorithm` (pure ``init /
-propose / update`` over a typed state) and one generation is its shared
+Every algorithm keeps the contract of :mod:`cpgjax.optim.algorithm` (pure ``init / ask / tell``
+over a typed state) and one generation is its shared
 :func:`~cpgjax.optim.algorithm.generation_step` (the sweep runs the same one), with
 ``k_init, k_propose, k_update = split(jax.random.key(seed), 3)`` (:func:`run_keys`).  A chunk
 of ``chunk`` generations is one jitted ``lax.scan``; generations past the end of the run inside
@@ -14,8 +14,9 @@ whole command), the first SIGINT only asks to stop: the driver finishes the gene
 writes it, and raises ``KeyboardInterrupt`` at a clean point (never inside XLA's compiler); a second
 SIGINT interrupts at once.  Either way the file holds only complete generations.
 
-Resume: each row stores the algorithm's state after that generation (``/state/*``; for the
-GA the population bred from it).  ``resume=True`` reads the last complete row and continues
+Resume: each row stores the algorithm's state after that generation (``/state/*``, by name:
+:meth:`~cpgjax.optim.algorithm.Algorithm.save`; for the GA the population bred from it).
+``resume=True`` reads the last complete row, rebuilds the state (``Algorithm.load``) and continues
 the scan from ``completed`` with that state; because keys depend only on (seed, GEN) and the
 program is the same, the resumed file holds bit for bit the rows an uninterrupted run would
 (wall times aside), provided the chunk size, the machine and the JAX version are the same.
@@ -51,7 +52,7 @@ from cpgjax.io.results import (
     run_machines,
 )
 from cpgjax.optim import baselines, es, ga
-from cpgjax.optim.algorithm import Algorithm, ga_algorithm, make_algorithm, make_chunk_fn
+from cpgjax.optim.algorithm import Algorithm, make_algorithm, make_chunk_fn
 from cpgjax.optim.problem import Problem
 
 
@@ -244,6 +245,17 @@ def _check_machine(path: str, completed: int, allow: bool) -> None:
         w.set_attr("machines", json.dumps(machines + [{"from_generation": completed, **machine()}]))
 
 
+def _check_stored_state(path: str, stored: dict[str, np.ndarray], spec: dict[str, Any]) -> None:
+    """Refuse a stored state that is not what this algorithm stores (another layout, or another evosax's)."""
+    for k, s in spec.items():
+        if k not in stored:
+            raise ResultsError(f"{path}: cannot resume: the run stores no state {k!r} (it stores "
+                               f"{', '.join(sorted(stored)) or 'none'}); start anew with --overwrite")
+        if tuple(np.shape(stored[k])) != tuple(s.shape):
+            raise ResultsError(f"{path}: cannot resume: its state {k!r} has shape {tuple(np.shape(stored[k]))}, "
+                               f"this version stores {tuple(s.shape)}; start anew with --overwrite")
+
+
 def metrics_spec(problem: Problem, population: int) -> dict[str, tuple[tuple[int, ...], Any]]:
     """The per-individual metrics ``problem.evaluate`` returns besides fitness (shapes for the run file).
 
@@ -269,11 +281,14 @@ def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k
     the state is ``algo.init`` with the run's ``k_init``.  ``path=None``: nothing on disk.
     ``init`` (a jitted ``algo.init``) and ``metrics`` (:func:`metrics_spec`) may be passed in by
     callers that open many runs of one shape, so that neither is traced again for each.
+    The stored state must have the names and shapes this algorithm stores (:meth:`Algorithm.save`), else
+    :class:`ResultsError`.
     A run to continue that was computed on another machine or with other versions (the CPU, its vector
     ISA, cpgjax, jax, jaxlib, mujoco: :func:`cpgjax.io.results.machine`) is refused unless
     ``allow_other_machine``; then the file records from which generation on this machine computed it.
     """
     state_spec = jax.eval_shape(algo.init, params, k_init)
+    saved_spec = jax.eval_shape(algo.save, state_spec)
     if path is not None and resume and os.path.exists(path):
         _check_resume(path, algo, problem)
         completed, stored, wall0 = read_resume_point(path)
@@ -285,14 +300,14 @@ def open_run(problem: Problem, algo: Algorithm, path: str | None, params: Any, k
                 w.set_attr("cfg_generations", algo.generations)
                 w.set_attr("config", json.dumps(algo.config))
         if completed:
-            return completed, type(state_spec)(**{k: jnp.asarray(stored[k], s.dtype)
-                                                  for k, s in state_spec._asdict().items()}), wall0
+            _check_stored_state(path, stored, saved_spec)
+            return completed, algo.load(stored, state_spec), wall0
     elif path is not None:
         if os.path.exists(path) and not overwrite:
             raise ResultsError(f"{path} exists; use --resume to continue it or --overwrite to replace it")
         if metrics is None:
             metrics = metrics_spec(problem, algo.population)
-        states = {k: (tuple(s.shape), s.dtype) for k, s in state_spec._asdict().items()}
+        states = {k: (tuple(s.shape), s.dtype) for k, s in saved_spec.items()}
         create_run(path, kind=algo.kind, config=algo.config, problem=problem, population=algo.population,
                    generations=algo.generations, metrics=metrics, state=states, overwrite=overwrite)
     return 0, (init or jax.jit(algo.init))(params, k_init), 0.0
@@ -355,7 +370,7 @@ def _run_deferred(problem: Problem, algo: Algorithm, out: str | os.PathLike[str]
                 row = Row(genomes=rows["genomes"][i], fitness=fit, diverged=div,
                           mutation_rate=float(rows["rate"][i]), wall_time=wall,
                           metrics={k: v[i] for k, v in rows["metrics"].items()},
-                          state={k: v[i] for k, v in rows["state"]._asdict().items()})
+                          state={k: v[i] for k, v in rows["state"].items()})
                 done.append(row)
                 valid = fit[~div]
                 gbest = float(valid.max()) if valid.size else float("nan")
@@ -416,7 +431,7 @@ def run_ga(problem: Problem, cfg: ga.GAConfig, out: str | os.PathLike[str] | Non
     machine or with other versions (recorded in the file; otherwise refused).  Returns a summary dict
     (best fitness, generation, index and genome, evaluations per second, compile time, ...).
     """
-    return _run(problem, ga_algorithm(problem, cfg), out, chunk=cfg.chunk, seed=cfg.seed, static=(),
+    return _run(problem, make_algorithm(problem, cfg), out, chunk=cfg.chunk, seed=cfg.seed, static=(),
                 resume=resume,
                 overwrite=overwrite, progress=progress, stop_after=stop_after, callback=callback,
                 desc="evolve", allow_other_machine=allow_other_machine)

@@ -1,6 +1,6 @@
 """``cpgjax repertoire``: a MAP-Elites archive of gaits into a run file, and reading it back (beyond the thesis).
 
-The run is MAP-Elites (:mod:`cpgjax.optim.mapelites`) on the shared adapter: one generation is
+The run is MAP-Elites (:mod:`cpgjax.optim.mapelites`) on the optimisers' contract: one generation is
 :func:`cpgjax.optim.algorithm.generation_step` (``batch`` children in one batched simulation, with the
 behaviour descriptors accumulated in the rollout, :mod:`cpgjax.episode.descriptors`), ``chunk``
 generations one jitted ``lax.scan``, with the keys of :func:`cpgjax.experiments.evolve.run_keys`.
@@ -58,14 +58,6 @@ def grid_of(attrs: dict) -> me.Grid:
                    tuple(int(b) for b in g["bins"]))
 
 
-def problem_grid(problem: Problem, cfg: me.MEConfig) -> me.Grid:
-    """The grid of ``cfg`` over the problem's descriptor (``meta["descriptor_metrics"]``)."""
-    names = tuple(json.loads(problem.meta.get("descriptor_metrics") or "[]"))
-    if not names:
-        raise ValueError(f"{problem.name}: the problem has no behaviour descriptor (a .wl model is needed)")
-    return me.make_grid(cfg, names)
-
-
 def _valid(run) -> np.ndarray:
     """[G, N]: the children insertion considered (not diverged; not fallen unless the run kept them)."""
     ok = ~np.asarray(run.diverged)
@@ -100,8 +92,8 @@ def run_repertoire(problem: Problem, cfg: me.MEConfig, out: str | os.PathLike[st
 def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callback, allow_other_machine):
     from tqdm.auto import tqdm
 
-    grid = problem_grid(problem, cfg)
-    algo = me.mapelites_algorithm(problem, cfg, grid)
+    algo = cfg.algorithm(problem)
+    grid = algo.grid
     k_init, k_prop, k_upd = run_keys(cfg.seed)
     static = (("grid", _grid_json(grid)),) + tuple(sorted((k, json.dumps(v)) for k, v in cfg.to_dict().items()
                                                           if k not in ("seed", "chunk", "evaluations")))
@@ -163,9 +155,9 @@ def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callbac
             t2 = time.perf_counter()
             done = []
             for i in range(n_valid):
-                st = rows["state"]
-                filled = st.filled[i]
-                qd = me.qd_score(st.fitness[i], filled, cfg.qd_offset)
+                st = rows["state"]                         # the archive after generation i, by name
+                filled = st["filled"][i]
+                qd = me.qd_score(st["fitness"][i], filled, cfg.qd_offset)
                 fit, div = rows["fitness"][i], rows["diverged"][i]
                 if np.any(~div):
                     best = max(best, float(np.max(fit[~div])))
@@ -173,7 +165,7 @@ def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callbac
                                 mutation_rate=float("nan"),
                                 wall_time=wall0 + (t1 - t_start) + (t2 - t1) * (i + 1) / n_valid,
                                 metrics={k: v[i] for k, v in rows["metrics"].items()},
-                                state={"cells": st.cells[i], "filled": np.int32(filled.sum()),
+                                state={"cells": st["cells"][i], "filled": np.int32(filled.sum()),
                                        "qd_score": np.float64(qd)}))
                 info = {"filled": int(filled.sum()), "coverage": me.coverage(filled), "qd_score": qd,
                         "best": best}

@@ -1,137 +1,117 @@
-"""The adapter every optimiser goes through, and the one generation step all drivers share.
+"""The contract every optimiser keeps, and the one generation step all drivers share.
 
-An :class:`Algorithm` is a population-based optimiser as pure functions over a typed state
-(:class:`cpgjax.optim.ga.GAState`, :class:`cpgjax.optim.baselines.AMCState`,
-:class:`cpgjax.optim.es.ESState`, ...)::
+An :class:`Algorithm` is a population-based optimiser as pure methods over a typed state (a dataclass
+registered as a pytree: :class:`~cpgjax.optim.ga.GAState`, :class:`~cpgjax.optim.baselines.AMCState`,
+:class:`~cpgjax.optim.es.ESState`, :class:`~cpgjax.optim.mapelites.MEState`, ...), in evosax's ask / tell
+form::
 
-    genomes = propose(params, state, fold_in(k_propose, GEN), GEN)    # GA: the population
-    out     = problem.evaluate(genomes)                                 # one batched simulation
-    state   = update(params, state, genomes, fitness, diverged,
-                     fold_in(k_update, GEN), GEN)                       # GA: ga.reproduce (eq. 6.1)
+    state          = algo.init(params, k_init)
+    genomes, state = algo.ask(params, state, fold_in(k_propose, GEN), GEN)    # GA: the population
+    scores         = problem.evaluate(genomes)                                 # one batched simulation
+    state          = algo.tell(params, state, genomes, scores,
+                               fold_in(k_update, GEN), GEN)                    # GA: ga.reproduce (eq. 6.1)
 
-:func:`generation_step` is that generation for *groups* of runs (each group: runs of one
-algorithm shape, vmapped over its runs; every group's proposals go to ONE ``problem.evaluate``
-call).  ``cpgjax evolve`` runs it with one group of one run, ``cpgjax sweep`` with every run
-of the sweep; :func:`make_chunk_fn` scans it over ``chunk`` generations.  Because the
-simulator's result for a robot does not depend on the batch it is in, a run gives the same
-numbers bit for bit in either driver.
+``params`` are a run's settings as traced arrays (the GA's :class:`~cpgjax.optim.ga.GAParams`; ``()`` for
+the others, whose settings are compile-time constants of the algorithm object), so that the runs of one
+group are ``jax.vmap``-ed over their params, states and keys.  ``scores`` carries the problem's outputs **by
+name** (QDax's ``extra_scores``): ``"fitness"`` [N] float32, ``"diverged"`` [N] bool (the problem's flag or
+a non-finite fitness) and every other output of ``problem.evaluate`` as [N] float32 (``distance``,
+``speed``..., a repertoire's descriptor dimensions, its fall flag ``down``); an algorithm reads what it
+needs (:class:`Scores`).
+
+What a run file stores of the state after each generation is :meth:`Algorithm.save` (arrays by name,
+``/state/<name>``; by default the state's fields), and ``--resume`` rebuilds the state with
+:meth:`Algorithm.load`.
+
+:func:`generation_step` is one generation for *groups* of runs (each group: runs of one algorithm, vmapped
+over its runs; every group's genomes go to ONE ``problem.evaluate`` call).  ``cpgjax evolve`` runs it with
+one group of one run, ``cpgjax sweep`` with every run of the sweep; :func:`make_chunk_fn` scans it over
+``chunk`` generations.  Because the simulator's result for a robot does not depend on the batch it is in, a
+run gives the same numbers bit for bit in either driver.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+import abc
+import dataclasses
+from collections.abc import Mapping, Sequence
 from functools import partial
-from typing import Any
+from typing import Any, Generic, Protocol, TypeVar
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
-from cpgjax.optim import baselines, es, ga
 from cpgjax.optim.problem import Problem
 
+Scores = Mapping[str, jax.Array]
+"""A generation's scores by name: ``fitness``, ``diverged`` and the problem's other outputs (module docstring)."""
 
-@dataclass(frozen=True)
-class Algorithm:
-    """A population-based optimiser as pure functions (see the module docstring)."""
+S = TypeVar("S")   # an algorithm's state: a frozen dataclass registered as a pytree
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True, eq=False)
+class Algorithm(abc.ABC, Generic[S]):
+    """A population-based optimiser as pure methods over a typed state (see the module docstring).
+
+    Fields: ``kind`` (the run file's kind: ``ga``, ``random``, ``amc``, an evosax method, ``map-elites``...),
+    ``population`` (genomes asked per generation), ``generations`` (of a whole run), ``config`` (its settings,
+    stored with the run), ``params`` (the traced per-run settings), ``resumable_changes`` (the settings a
+    ``--resume`` may change).  Every method is pure and traceable; ``gen`` is an int32 scalar.
+    """
 
     kind: str
     population: int
     generations: int
     config: dict[str, Any]
-    params: Any
-    init: Callable[[Any, jax.Array], Any]
-    propose: Callable[[Any, Any, jax.Array, jax.Array], jax.Array]
-    update: Callable[[Any, Any, jax.Array, jax.Array, jax.Array, jax.Array, jax.Array], Any]
-    rate: Callable[[Any, jax.Array], jax.Array]
+    params: Any = ()
     resumable_changes: tuple[str, ...] = ("chunk",)
-    # the problem's metrics an update also needs, stacked [N, D] and passed after ``gen`` (a quality-diversity
-    # archive's behaviour descriptors, :mod:`cpgjax.optim.mapelites`); empty: update gets none
-    descriptor: tuple[str, ...] = ()
+
+    @abc.abstractmethod
+    def init(self, params: Any, key: jax.Array) -> S:
+        """The state before generation 0."""
+
+    @abc.abstractmethod
+    def ask(self, params: Any, state: S, key: jax.Array, gen: jax.Array) -> tuple[jax.Array, S]:
+        """The genomes [population, G] of generation ``gen``, and the state they leave."""
+
+    @abc.abstractmethod
+    def tell(self, params: Any, state: S, genomes: jax.Array, scores: Scores, key: jax.Array,
+             gen: jax.Array) -> S:
+        """The state after generation ``gen``'s ``genomes`` scored ``scores`` (by name)."""
+
+    def mutation_rate(self, params: Any, gen: jax.Array) -> jax.Array:
+        """The run file's ``mutation_rate`` of generation ``gen`` (the GA's eq. 6.1); NaN unless the algorithm
+        has one."""
+        return jnp.float32(jnp.nan)
+
+    def save(self, state: S) -> dict[str, jax.Array]:
+        """The arrays a run file stores of ``state`` after a generation, by name (default: its fields)."""
+        return {f.name: getattr(state, f.name) for f in dataclasses.fields(state)}
+
+    def load(self, stored: Mapping[str, Any], like: S) -> S:
+        """The state :meth:`save` stored (``--resume``); ``like`` is a state of the right shapes
+        (``jax.eval_shape`` of :meth:`init`)."""
+        return type(like)(**{k: jnp.asarray(stored[k], s.dtype) for k, s in self.save(like).items()})
 
 
-def ga_algorithm(problem: Problem, cfg: ga.GAConfig) -> Algorithm:
-    """The GA of :mod:`cpgjax.optim.ga` as an :class:`Algorithm` (state: the population)."""
-    base, lo, hi = np.asarray(problem.base_genome, np.float32), problem.lower, problem.upper
-    if base.shape != (problem.n_genes,):
-        raise ValueError(f"base_genome has shape {base.shape}, expected ({problem.n_genes},)")
+class Config(Protocol):
+    """A configuration that makes its algorithm (``GAConfig``, ``SearchConfig``, ``ESConfig``, ``MEConfig``)."""
 
-    def init(params, key):
-        return ga.GAState(ga.init_population(key, base, cfg.population, cfg.init_spread, lo, hi))
+    seed: int
+    chunk: int
 
-    def propose(params, state, key, gen):
-        return state.population
-
-    def update(params, state, genomes, fitness, diverged, key, gen):
-        return ga.GAState(ga.reproduce(key, genomes, fitness, params, gen, diverged))
-
-    def rate(params, gen):
-        return ga.mutation_rate(gen, params.mu_max, params.gamma)
-
-    return Algorithm("ga", cfg.population, cfg.generations, cfg.to_dict(), cfg.params(lo, hi),
-                     init, propose, update, rate, resumable_changes=("chunk", "generations"))
-
-
-def search_algorithm(problem: Problem, cfg: baselines.SearchConfig) -> Algorithm:
-    """Random search or adaptive Monte Carlo (:mod:`cpgjax.optim.baselines`) as an :class:`Algorithm`."""
-    n, g, lo, hi = cfg.population, problem.n_genes, problem.lower, problem.upper
-    nan = lambda params, gen: jnp.float32(jnp.nan)  # noqa: E731
-
-    if cfg.method == "random":
-        return Algorithm(
-            "random", n, cfg.iterations, cfg.to_dict(), (),
-            init=lambda params, key: baselines.RandomState(),
-            propose=lambda params, state, key, gen: baselines.random_propose(key, n, g, lo, hi),
-            update=lambda params, state, genomes, f, d, key, gen: state,
-            rate=nan)
-
-    K = cfg.iterations
-
-    def init(params, key):
-        return baselines.amc_init(cfg.M, g, lo, hi)
-
-    def propose(params, state, key, gen):
-        w = baselines.amc_width(gen, K, lo, hi, cfg.width_end)
-        return baselines.amc_propose(state, key, w, cfg.per_variable, lo, hi)
-
-    def update(params, state, genomes, f, d, key, gen):
-        new = baselines.amc_update(state, genomes, f, d)
-        return new._replace(width=baselines.amc_width(gen, K, lo, hi, cfg.width_end).astype(jnp.float32))
-
-    return Algorithm("amc", n, K, cfg.to_dict(), (), init, propose, update, nan)
-
-
-def es_algorithm(problem: Problem, cfg: es.ESConfig) -> Algorithm:
-    """An evolution strategy of ``evosax`` (:mod:`cpgjax.optim.es`) as an :class:`Algorithm`.
-
-    Its parameters are compile-time settings (every run of a sweep group shares them), so ``params``
-    is empty; the "mutation rate" column holds NaN, as for the other baselines.
-    """
-    base = np.asarray(problem.base_genome, np.float32)
-    init, propose, update = es.make_es(cfg, base, problem.lower, problem.upper)
-    return Algorithm(cfg.method, cfg.population, cfg.generations, cfg.to_dict(), (),
-                     init=lambda params, key: init(key),
-                     propose=lambda params, state, key, gen: propose(state),
-                     update=lambda params, state, genomes, f, d, key, gen: update(state, f, d, key),
-                     rate=lambda params, gen: jnp.float32(jnp.nan))
-
-
-Config = ga.GAConfig | baselines.SearchConfig | es.ESConfig
+    def algorithm(self, problem: Problem) -> Algorithm: ...
 
 
 def make_algorithm(problem: Problem, cfg: Config) -> Algorithm:
-    """The :class:`Algorithm` of a configuration (GA, a baseline search, or an evolution strategy)."""
-    if isinstance(cfg, ga.GAConfig):
-        return ga_algorithm(problem, cfg)
-    if isinstance(cfg, es.ESConfig):
-        return es_algorithm(problem, cfg)
-    return search_algorithm(problem, cfg)
+    """The :class:`Algorithm` of a configuration on ``problem`` (the GA, a baseline search, an evolution
+    strategy, MAP-Elites: each configuration class makes its own)."""
+    return cfg.algorithm(problem)
 
 
 def stack_params(algo: Algorithm, params: Sequence[Any]) -> Any:
     """Per-run params of one group stacked along a new leading axis (for ``jax.vmap`` over runs)."""
-    return ga.stack_params(list(params)) if algo.kind == "ga" else ()
+    return jax.tree.map(lambda *xs: jnp.stack(xs), *params)
 
 
 def _keep(active, new, old):
@@ -157,10 +137,11 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
 
     Per group (lists, one entry per group of ``sizes[i]`` runs of ``algos[i]``): ``params`` and
     ``states`` stacked over its runs, ``kps``/``kus`` ``[R]`` keys, ``gens``/``targets`` ``[R]``
-    int32 (the generation being made and the end of each run).  Every group's proposals go to one
+    int32 (the generation being made and the end of each run).  Every group's genomes go to one
     ``problem.evaluate``; a run with ``gen >= target`` keeps its state.  ``rows`` per group:
     genomes ``[R, N, G]``, raw fitness and diverged (flag or non-finite fitness) ``[R, N]``, the
-    mutation rate ``[R]``, the metrics ``[R, N]`` and the new state.
+    mutation rate ``[R]``, the problem's other outputs (``metrics``, by name) ``[R, N]`` and what the
+    run file stores of the new state (``state``: :meth:`Algorithm.save`, by name).
     """
     G = problem.n_genes
     # The evaluation as a jitted function of its own, whose constants (the model's arrays) stay literals
@@ -174,10 +155,12 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
     evaluate = jax.jit(problem.evaluate)
 
     def generation(params, states, kps, kus, gens, targets):
-        proposals = []
+        proposals, asked = [], []
         for a, p, s, kp, gen in zip(algos, params, states, kps, gens, strict=True):
             keys = jax.vmap(jax.random.fold_in)(kp, gen)
-            proposals.append(jax.vmap(a.propose)(p, s, keys, gen))
+            x, s_asked = jax.vmap(a.ask)(p, s, keys, gen)
+            proposals.append(x)
+            asked.append(s_asked)
         # the barrier keeps XLA from fusing (and re-rounding) the proposals into the simulation
         proposals = jax.lax.optimization_barrier(proposals)
         flat = jnp.concatenate([x.reshape(-1, G) for x in proposals], axis=0)
@@ -188,25 +171,21 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
         else:
             ev = evaluate(flat)
         new_states, rows, off = [], [], 0
-        for a, p, s, ku, gen, tgt, x, r in zip(algos, params, states, kus, gens, targets, proposals, sizes,
-                                              strict=True):
+        for a, p, s, s_asked, ku, gen, tgt, x, r in zip(algos, params, states, asked, kus, gens, targets,
+                                                        proposals, sizes, strict=True):
             n = a.population
             part = {k: jax.lax.slice_in_dim(v, off, off + r * n) for k, v in ev.items()}
             off += r * n
             fit = jnp.asarray(part["fitness"], jnp.float32).reshape(r, n)
             div = jnp.asarray(part["diverged"], bool).reshape(r, n) | ~jnp.isfinite(fit)
-            keys = jax.vmap(jax.random.fold_in)(ku, gen)
-            if a.descriptor:
-                d = jnp.stack([jnp.asarray(part[k], jnp.float32).reshape(r, n) for k in a.descriptor], -1)
-                upd = jax.vmap(a.update)(p, s, x, fit, div, keys, gen, d)
-            else:
-                upd = jax.vmap(a.update)(p, s, x, fit, div, keys, gen)
-            new = jax.tree.map(partial(_keep, gen < tgt), upd, s)
             metrics = {k: jnp.asarray(v, jnp.float32).reshape(r, n) for k, v in part.items()
                        if k not in ("fitness", "diverged")}
-            rate = jnp.broadcast_to(jnp.asarray(jax.vmap(a.rate)(p, gen), jnp.float32), (r,))
+            keys = jax.vmap(jax.random.fold_in)(ku, gen)
+            told = jax.vmap(a.tell)(p, s_asked, x, {"fitness": fit, "diverged": div, **metrics}, keys, gen)
+            new = jax.tree.map(partial(_keep, gen < tgt), told, s)
+            rate = jnp.broadcast_to(jnp.asarray(jax.vmap(a.mutation_rate)(p, gen), jnp.float32), (r,))
             rows.append({"genomes": x.astype(jnp.float32), "fitness": fit, "diverged": div, "rate": rate,
-                         "metrics": metrics, "state": new})
+                         "metrics": metrics, "state": jax.vmap(a.save, axis_size=r)(new)})
             new_states.append(new)
         return new_states, rows
 

@@ -1,10 +1,10 @@
 """Baselines of Ch. 6.2.5-6.2.6 on the GA's budget: uniform random search and adaptive Monte Carlo.
 
-Both are written as the GA is: a pure ``propose(state, key, gen) -> genomes`` and a pure
-``update(state, genomes, fitness, gen) -> state`` over a typed state, driven through
-:mod:`cpgjax.optim.algorithm` by :func:`cpgjax.experiments.evolve.run_search` with the same
-chunked ``lax.scan``, the same keys (``fold_in(run_key, gen)``) and the same
-HDF5 layout (a "generation" is one batch of evaluations).
+Both keep the GA's contract (:class:`cpgjax.optim.algorithm.Algorithm`: :class:`RandomSearch`,
+:class:`AdaptiveMonteCarlo`, made by :meth:`SearchConfig.algorithm`): pure ``ask`` and ``tell`` over a
+typed state, driven by :func:`cpgjax.experiments.evolve.run_search` with the same chunked ``lax.scan``,
+the same keys (``fold_in(run_key, gen)``) and the same HDF5 layout (a "generation" is one batch of
+evaluations).
 
 **Random search** (Fig. 6.10): every sample uniform in the hypercube ``[-0.8, 0.8]^G``
 (side 1.6), in batches of ``batch`` (default 20, the GA's population) until ``samples``
@@ -35,10 +35,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+
+from cpgjax.optim.algorithm import Algorithm, Scores
+from cpgjax.optim.problem import Problem
 
 METHODS = ("random", "amc")
 
@@ -81,12 +83,23 @@ class SearchConfig:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    def algorithm(self, problem: Problem) -> RandomSearch | AdaptiveMonteCarlo:
+        """This search on ``problem`` (its genome size and search box)."""
+        cls = RandomSearch if self.method == "random" else AdaptiveMonteCarlo
+        return cls(kind=self.method, population=self.population, generations=self.iterations,
+                    config=self.to_dict(), cfg=self, n_genes=problem.n_genes, lower=problem.lower,
+                    upper=problem.upper)
 
-class RandomState(NamedTuple):
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class RandomState:
     """Random search keeps no state."""
 
 
-class AMCState(NamedTuple):
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class AMCState:
     """Adaptive Monte Carlo: each variable's centre and best fitness, and the current box half-width."""
 
     center: jax.Array   # [M, G] float32
@@ -132,5 +145,48 @@ def amc_update(state: AMCState, genomes: jax.Array, fitness: jax.Array, diverged
     fb = jnp.take_along_axis(f, i[:, None], axis=1)[:, 0]
     gb = jnp.take_along_axis(g, i[:, None, None], axis=1)[:, 0]
     better = fb > state.best
-    return state._replace(center=jnp.where(better[:, None], gb, state.center),
-                          best=jnp.where(better, fb, state.best))
+    return dataclasses.replace(state, center=jnp.where(better[:, None], gb, state.center),
+                               best=jnp.where(better, fb, state.best))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class RandomSearch(Algorithm[RandomState]):
+    """Fig. 6.10 as an :class:`~cpgjax.optim.algorithm.Algorithm`: every batch uniform in the hypercube."""
+
+    cfg: SearchConfig
+    n_genes: int
+    lower: float
+    upper: float
+
+    def init(self, params, key: jax.Array) -> RandomState:
+        return RandomState()
+
+    def ask(self, params, state: RandomState, key: jax.Array, gen) -> tuple[jax.Array, RandomState]:
+        return random_propose(key, self.population, self.n_genes, self.lower, self.upper), state
+
+    def tell(self, params, state: RandomState, genomes: jax.Array, scores: Scores, key: jax.Array,
+             gen) -> RandomState:
+        return state
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class AdaptiveMonteCarlo(Algorithm[AMCState]):
+    """Fig. 6.11 as an :class:`~cpgjax.optim.algorithm.Algorithm` (the module docstring's reading)."""
+
+    cfg: SearchConfig
+    n_genes: int
+    lower: float
+    upper: float
+
+    def _width(self, gen):
+        return amc_width(gen, self.generations, self.lower, self.upper, self.cfg.width_end)
+
+    def init(self, params, key: jax.Array) -> AMCState:
+        return amc_init(self.cfg.M, self.n_genes, self.lower, self.upper)
+
+    def ask(self, params, state: AMCState, key: jax.Array, gen) -> tuple[jax.Array, AMCState]:
+        return amc_propose(state, key, self._width(gen), self.cfg.per_variable, self.lower, self.upper), state
+
+    def tell(self, params, state: AMCState, genomes: jax.Array, scores: Scores, key: jax.Array, gen) -> AMCState:
+        new = amc_update(state, genomes, scores["fitness"], scores["diverged"])
+        return dataclasses.replace(new, width=self._width(gen).astype(jnp.float32))

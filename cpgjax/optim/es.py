@@ -1,4 +1,4 @@
-"""Modern evolution strategies beside the thesis's GA: the one adapter to ``evosax`` (not part of the thesis).
+"""Modern evolution strategies beside the thesis's GA: every call to ``evosax`` in one place (not part of the thesis).
 
 The thesis compared its GA with random search and adaptive Monte Carlo (Figs. 6.10-6.12).  The
 strategies people use today are compared here on the same budget (3000 evaluations), the same
@@ -29,11 +29,13 @@ face does, a flat region in which CMA-ES's step size grows without bound (measur
 out they are, so the search settles on the face.
 
 **State, as the GA's.**  :class:`ESState` holds the samples the *next* generation evaluates (as the
-GA's state holds its next population) and the evosax state packed into two flat vectors (its float
-leaves and its integer leaves), so that each row of the HDF5 file stores it and ``--resume``
-continues bit for bit.  ``init`` asks for generation 0 with the run's ``k_init``; ``update`` tells
-the strategy a generation's fitness and asks for the next one, with keys split from the run's
-update key for that generation.
+GA's state holds its next population) and evosax's own state as evosax keeps it (a pytree).
+:class:`EvolutionStrategy` keeps the contract of :class:`cpgjax.optim.algorithm.Algorithm`: ``init`` asks
+for generation 0 with the run's ``k_init``; ``ask`` gives the mirrored samples; ``tell`` tells the
+strategy a generation's fitness and asks for the next one, with keys split from the run's update key
+for that generation.  A run file stores, per generation, the samples and evosax's state as two vectors,
+its float leaves and its integer leaves in evosax's order (:meth:`EvolutionStrategy.save`; the layout
+of every run file written so far), from which ``--resume`` rebuilds it bit for bit.
 """
 
 from __future__ import annotations
@@ -41,12 +43,16 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from cpgjax.optim.algorithm import Algorithm, Scores
+from cpgjax.optim.problem import Problem
 
 METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")
 NAMES = {"cmaes": "CMA-ES", "sep_cmaes": "sep-CMA-ES", "openes": "OpenAI-ES", "pgpe": "PGPE", "snes": "SNES"}
@@ -87,13 +93,23 @@ class ESConfig:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
+    def algorithm(self, problem: Problem) -> EvolutionStrategy:
+        """This strategy on ``problem``, its mean starting at the problem's start genome (in the box)."""
+        n, g = self.population, problem.n_genes
+        es, params = strategy(self.method, n, g, float(self.sigma), float(self.lr))
+        mean0 = np.clip(np.asarray(problem.base_genome, np.float32), problem.lower, problem.upper)
+        return EvolutionStrategy(kind=self.method, population=n, generations=self.generations,
+                                 config=self.to_dict(), strategy=es, strategy_params=params,
+                                 mean0=jnp.asarray(mean0, jnp.float32), lower=problem.lower, upper=problem.upper)
 
-class ESState(NamedTuple):
-    """An evolution strategy between generations: the next samples and the packed evosax state."""
 
-    samples: jax.Array   # [N, G] float32: the strategy's (unclipped) samples for the next generation
-    real: jax.Array      # [S] float32: the evosax state's float leaves, flattened
-    count: jax.Array     # [C] int32: its integer leaves (generation counters, optimiser steps)
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class ESState:
+    """An evolution strategy between generations: the next samples and evosax's state."""
+
+    samples: jax.Array   # [N, G] float32: the strategy's (unmirrored) samples for the next generation
+    strategy: Any        # evosax's state of the strategy (its own pytree: mean, step size, ...)
 
 
 @functools.lru_cache(maxsize=64)
@@ -140,6 +156,21 @@ def _unpacker(template):
     return unpack
 
 
+def _through_stored(strategy):
+    """evosax's state through the two vectors a run file stores (:func:`_pack`, and back) behind an optimisation
+    barrier, as :meth:`EvolutionStrategy.tell` takes it in and gives it out.
+
+    Why (compiler behaviour, jax 0.10.2): the strategy's state used to be carried from one generation to the next
+    in this packed form.  Carried as its own pytree, XLA fused evosax's arithmetic otherwise and rounded some of
+    it differently (measured: 7 of the 62 floats of sep-CMA-ES's state after generation 1, relative 3e-7; then
+    other samples), so that runs no longer gave the numbers of the runs made before; without the barrier XLA
+    folds the round trip away.  With it, the program between the barriers is the one compiled before, and so
+    is every number of a run.
+    """
+    real, count = jax.lax.optimization_barrier(_pack(strategy))
+    return _unpacker(strategy)(real, count)
+
+
 def reflect(x: jax.Array, lower: float, upper: float) -> jax.Array:
     """``x`` mirrored into ``[lower, upper]`` at its faces (periodically: a mirror of a mirror ...)."""
     w = upper - lower
@@ -147,29 +178,46 @@ def reflect(x: jax.Array, lower: float, upper: float) -> jax.Array:
     return jnp.clip(lower + (w - jnp.abs(y - w)), lower, upper)
 
 
-def make_es(cfg: ESConfig, base: np.ndarray, lower: float, upper: float):
-    """``(init(key), propose(state), update(state, fitness, diverged, key))`` of a strategy, pure and jittable."""
-    n, g = cfg.population, int(base.shape[0])
-    es, params = strategy(cfg.method, n, g, float(cfg.sigma), float(cfg.lr))
-    mean0 = jnp.asarray(np.clip(base, lower, upper), jnp.float32)
-    unpack = _unpacker(jax.eval_shape(lambda: es.init(jax.random.key(0), mean0, params)))
+@dataclass(frozen=True, kw_only=True, eq=False)
+class EvolutionStrategy(Algorithm[ESState]):
+    """A strategy of ``evosax`` as an :class:`~cpgjax.optim.algorithm.Algorithm` (module docstring).
 
-    def ask(key, s):
-        x, s = es.ask(key, s, params)
-        return ESState(jnp.asarray(x, jnp.float32), *_pack(s))
+    Its settings are compile-time constants (every run of a sweep group shares them), so ``params`` is
+    empty; the "mutation rate" column holds NaN, as for the other baselines.
+    """
 
-    def init(key) -> ESState:
+    strategy: Any          # the evosax object (:func:`strategy`)
+    strategy_params: Any   # its params
+    mean0: jax.Array       # [G] the start of the mean
+    lower: float
+    upper: float
+
+    def _ask(self, key: jax.Array, s) -> ESState:
+        x, s = self.strategy.ask(key, s, self.strategy_params)
+        return ESState(jnp.asarray(x, jnp.float32), s)
+
+    def init(self, params, key: jax.Array) -> ESState:
         k_init, k_ask = jax.random.split(key)
-        return ask(k_ask, es.init(k_init, mean0, params))
+        return self._ask(k_ask, self.strategy.init(k_init, self.mean0, self.strategy_params))
 
-    def propose(state: ESState) -> jax.Array:
-        return reflect(state.samples, lower, upper)
+    def ask(self, params, state: ESState, key: jax.Array, gen) -> tuple[jax.Array, ESState]:
+        return reflect(state.samples, self.lower, self.upper), state
 
-    def update(state: ESState, fitness, diverged, key) -> ESState:
+    def tell(self, params, state: ESState, genomes: jax.Array, scores: Scores, key: jax.Array, gen) -> ESState:
         k_tell, k_ask = jax.random.split(key)
-        loss = jnp.where(diverged | ~jnp.isfinite(fitness), jnp.nan, -fitness)
-        s, _ = es.tell(k_tell, state.samples, loss, unpack(state.real, state.count), params)
-        s = s.replace(mean=jnp.clip(s.mean, lower, upper))
-        return ask(k_ask, s)
+        fitness = scores["fitness"]
+        loss = jnp.where(scores["diverged"] | ~jnp.isfinite(fitness), jnp.nan, -fitness)
+        s, _ = self.strategy.tell(k_tell, state.samples, loss, _through_stored(state.strategy), self.strategy_params)
+        s = s.replace(mean=jnp.clip(s.mean, self.lower, self.upper))
+        new = self._ask(k_ask, s)
+        return ESState(new.samples, _through_stored(new.strategy))
 
-    return init, propose, update
+    def save(self, state: ESState) -> dict[str, jax.Array]:
+        """``samples``, and evosax's state as ``real`` [S] float32 (its float leaves, flattened in evosax's
+        order) and ``count`` [C] int32 (its integer leaves: generation counters, optimiser steps)."""
+        real, count = _pack(state.strategy)
+        return {"samples": state.samples, "real": real, "count": count}
+
+    def load(self, stored: Mapping[str, Any], like: ESState) -> ESState:
+        return ESState(jnp.asarray(stored["samples"], jnp.float32),
+                       _unpacker(like.strategy)(jnp.asarray(stored["real"]), jnp.asarray(stored["count"])))

@@ -40,6 +40,9 @@ cross-over on/off, mutation scale) side by side in one XLA program.
 
 No elitism: the thesis has none; pocketing is its way to keep the best.
 
+:class:`GeneticAlgorithm` (made by :meth:`GAConfig.algorithm`) is the GA on the optimisers' contract
+(:class:`cpgjax.optim.algorithm.Algorithm`): ``ask`` gives the population, ``tell`` is :func:`reproduce`.
+
 All randomness comes from explicit ``jax.random`` keys: the driver
 (:mod:`cpgjax.experiments.evolve`) uses ``fold_in(run_key, GEN)`` for generation GEN, so a run is
 reproducible bit for bit from its seed and independent of how generations are chunked.
@@ -53,11 +56,14 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from cpgjax.optim.algorithm import Algorithm, Scores
+from cpgjax.optim.problem import Problem
 
 MUTATIONS = ("gauss", "redraw")
 SELECTIONS = ("clip", "shift")
@@ -106,14 +112,28 @@ class GAConfig:
             shift=jnp.bool_(self.selection == "shift"),
             lower=jnp.float32(lower), upper=jnp.float32(upper))
 
+    def algorithm(self, problem: Problem) -> GeneticAlgorithm:
+        """This GA on ``problem`` (its start genome and search box)."""
+        base = np.asarray(problem.base_genome, np.float32)
+        if base.shape != (problem.n_genes,):
+            raise ValueError(f"base_genome has shape {base.shape}, expected ({problem.n_genes},)")
+        return GeneticAlgorithm(kind="ga", population=self.population, generations=self.generations,
+                                config=self.to_dict(), params=self.params(problem.lower, problem.upper),
+                                resumable_changes=("chunk", "generations"), base=base,
+                                init_spread=self.init_spread, lower=problem.lower, upper=problem.upper)
 
-class GAState(NamedTuple):
+
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class GAState:
     """The GA's state between generations: the population to evaluate next."""
 
     population: jax.Array   # [N, G] float32
 
 
-class GAParams(NamedTuple):
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class GAParams:
     """Traced per-run settings of :func:`reproduce` (all arrays; stack them to vmap over runs)."""
 
     mu_max: jax.Array     # float32
@@ -238,6 +258,33 @@ def reproduce(key: jax.Array, population: jax.Array, fitness: jax.Array, params:
     offspring = jnp.where(params.crossover, crossed, duplicated)
     mu = mutation_rate(gen, params.mu_max, params.gamma)
     return mutate(k_mut, offspring, mu, params.sigma, params.redraw, params.lower, params.upper)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class GeneticAlgorithm(Algorithm[GAState]):
+    """The GA as an :class:`~cpgjax.optim.algorithm.Algorithm`: ask for the population, tell :func:`reproduce`.
+
+    Made by :meth:`GAConfig.algorithm`; its run-varying settings are ``params`` (:class:`GAParams`), so runs of
+    one population size and initial spread share one compiled program.
+    """
+
+    base: np.ndarray      # [G] the start genome (Ch. 4.3)
+    init_spread: float
+    lower: float
+    upper: float
+
+    def init(self, params: GAParams, key: jax.Array) -> GAState:
+        return GAState(init_population(key, self.base, self.population, self.init_spread, self.lower, self.upper))
+
+    def ask(self, params: GAParams, state: GAState, key: jax.Array, gen) -> tuple[jax.Array, GAState]:
+        return state.population, state
+
+    def tell(self, params: GAParams, state: GAState, genomes: jax.Array, scores: Scores, key: jax.Array,
+             gen) -> GAState:
+        return GAState(reproduce(key, genomes, scores["fitness"], params, gen, scores["diverged"]))
+
+    def mutation_rate(self, params: GAParams, gen) -> Any:
+        return mutation_rate(gen, params.mu_max, params.gamma)
 
 
 def stack_params(params: list[GAParams]) -> GAParams:

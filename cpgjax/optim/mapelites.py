@@ -1,4 +1,4 @@
-"""MAP-Elites and its iso+line variant on the :class:`~cpgjax.optim.algorithm.Algorithm` adapter (beyond the thesis).
+"""MAP-Elites and its iso+line variant as an :class:`~cpgjax.optim.algorithm.Algorithm` (beyond the thesis).
 
 Quality-diversity search (Mouret & Clune, *Illuminating search spaces by mapping elites*, 2015; Cully et
 al., Nature 2015): the behaviour space (:mod:`cpgjax.episode.descriptors`) is cut into a grid of cells and
@@ -33,6 +33,7 @@ how ``cpgjax repertoire --resume`` continues a run exactly without storing the a
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -41,7 +42,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.optim.algorithm import Algorithm
+from cpgjax.optim.algorithm import Algorithm, Scores
 from cpgjax.optim.problem import Problem
 
 METHODS = ("map-elites", "iso-line")
@@ -114,6 +115,10 @@ class MEConfig:
         d["cells"], d["bounds"] = list(self.cells), [list(b) for b in self.bounds]
         return d
 
+    def algorithm(self, problem: Problem) -> MapElites:
+        """This MAP-Elites on ``problem``, over the grid of its descriptor (:func:`problem_grid`)."""
+        return mapelites_algorithm(problem, self, problem_grid(problem, self))
+
 
 class Grid(NamedTuple):
     """The cells of the behaviour space: ``bins`` per dimension between ``lower`` and ``upper``."""
@@ -147,6 +152,14 @@ def make_grid(cfg: MEConfig, names: tuple[str, ...]) -> Grid:
     return Grid(tuple(names), lo, hi, bins)
 
 
+def problem_grid(problem: Problem, cfg: MEConfig) -> Grid:
+    """The grid of ``cfg`` over the problem's descriptor: the outputs named in ``meta["descriptor_metrics"]``."""
+    names = tuple(json.loads(problem.meta.get("descriptor_metrics") or "[]"))
+    if not names:
+        raise ValueError(f"{problem.name}: the problem has no behaviour descriptor (a .wl model is needed)")
+    return make_grid(cfg, names)
+
+
 def cell_index(grid: Grid, desc):
     """The cell [N] int32 of descriptors [N, D] (row-major over the bins; outside the bounds: the edge cell).
 
@@ -171,7 +184,9 @@ def cell_centres(grid: Grid) -> np.ndarray:
     return np.stack([m.reshape(-1) for m in mesh], -1).astype(np.float32)
 
 
-class MEState(NamedTuple):
+@jax.tree_util.register_dataclass
+@dataclass(frozen=True)
+class MEState:
     """The archive (per cell: elite genome, fitness, descriptor, filled) and the cells of the last batch."""
 
     genomes: jax.Array       # [C, G]
@@ -235,34 +250,46 @@ def fall_metric(problem: Problem, cfg: MEConfig) -> str | None:
     return None if cfg.keep_fallen else problem.meta.get("fall_metric")
 
 
-def mapelites_algorithm(problem: Problem, cfg: MEConfig, grid: Grid) -> Algorithm:
-    """MAP-Elites (``cfg.method``) on ``problem`` over ``grid`` as an :class:`Algorithm`.
+@dataclass(frozen=True, kw_only=True, eq=False)
+class MapElites(Algorithm[MEState]):
+    """MAP-Elites (``cfg.method``) over ``grid`` as an :class:`~cpgjax.optim.algorithm.Algorithm`.
 
-    The problem's metrics named ``grid.names`` are the descriptors (``Algorithm.descriptor``).  The state
-    is the archive (:class:`MEState`); ``propose`` varies it (:func:`vary`), ``update`` inserts the batch.
-    A child that fell (the problem's :func:`fall_metric` non-zero) is never inserted: a robot lying on its
-    side "turns" and "moves" as it tumbles, and its descriptor says nothing of a gait.
+    The state is the archive (:class:`MEState`); ``ask`` varies it (:func:`vary`), ``tell`` inserts the batch
+    with the descriptors it reads from the scores by name (``grid.names``).  A child that fell (its score
+    ``fall`` non-zero) is never inserted: a robot lying on its side "turns" and "moves" as it tumbles, and its
+    descriptor says nothing of a gait.  Its run file (:mod:`cpgjax.experiments.repertoire`) does not store the
+    archive (:meth:`save`'s fields) row by row but each batch's cells, the filled count and the QD-score, and
+    rebuilds the archive from the rows (:func:`replay`).
     """
-    lo, hi, G, N = float(problem.lower), float(problem.upper), problem.n_genes, cfg.batch
-    D = len(grid.names)
-    fall = fall_metric(problem, cfg)
 
-    def init(params, key):
-        return empty_archive(grid.n_cells, G, D, N)
+    cfg: MEConfig
+    grid: Grid
+    fall: str | None      # the score that flags a fall (:func:`fall_metric`); None: insert fallen robots too
+    n_genes: int
+    lower: float
+    upper: float
 
-    def propose(params, state, key, gen):
-        return vary(cfg, state, key, gen, N, lo, hi)
+    def init(self, params, key: jax.Array) -> MEState:
+        return empty_archive(self.grid.n_cells, self.n_genes, len(self.grid.names), self.population)
 
-    def update(params, state, genomes, fitness, diverged, key, gen, desc):
-        valid = ~diverged if fall is None else ~diverged & (desc[:, D] == 0)
-        desc = desc[:, :D]
-        cells = cell_index(grid, desc)
-        return insert(state, genomes, fitness, desc, cells, valid)
+    def ask(self, params, state: MEState, key: jax.Array, gen) -> tuple[jax.Array, MEState]:
+        return vary(self.cfg, state, key, gen, self.population, self.lower, self.upper), state
 
-    return Algorithm(cfg.method, N, cfg.generations, cfg.to_dict(), (), init, propose, update,
-                     rate=lambda params, gen: jnp.float32(jnp.nan),
-                     resumable_changes=("chunk", "evaluations"),
-                     descriptor=tuple(grid.names) + ((fall,) if fall else ()))
+    def tell(self, params, state: MEState, genomes: jax.Array, scores: Scores, key: jax.Array, gen) -> MEState:
+        valid = ~scores["diverged"]
+        if self.fall is not None:
+            valid = valid & (scores[self.fall] == 0)
+        desc = jnp.stack([scores[k] for k in self.grid.names], -1)
+        return insert(state, genomes, scores["fitness"], desc, cell_index(self.grid, desc), valid)
+
+
+def mapelites_algorithm(problem: Problem, cfg: MEConfig, grid: Grid) -> MapElites:
+    """MAP-Elites (``cfg.method``) on ``problem`` over ``grid``: the problem's outputs named ``grid.names`` are
+    the descriptors, its :func:`fall_metric` the fall."""
+    lo, hi = float(problem.lower), float(problem.upper)
+    return MapElites(kind=cfg.method, population=cfg.batch, generations=cfg.generations, config=cfg.to_dict(),
+                     resumable_changes=("chunk", "evaluations"), cfg=cfg, grid=grid, fall=fall_metric(problem, cfg),
+                     n_genes=problem.n_genes, lower=lo, upper=hi)
 
 
 _insert_jit = jax.jit(insert)

@@ -25,7 +25,8 @@ class Problem:
     """A fitness to maximise over genomes in the box ``[lower, upper]^n_genes``.
 
     ``evaluate(genomes [N, G] float32)`` returns ``{"fitness": [N] float32, "diverged": [N] bool}``
-    plus optional per-individual metrics (``[N]`` arrays, e.g. ``distance``, ``speed``, ``tilt``).
+    plus optional per-individual metrics (``[N]`` arrays, e.g. ``distance``, ``speed``, ``tilt``), all of which
+    reach an algorithm's ``tell`` by name (:class:`cpgjax.optim.algorithm.Algorithm`) and the run file.
     It must be pure, deterministic and traceable inside ``jit``/``lax.scan`` (no host callbacks);
     ``N`` may be any size.  Fitness may be NaN/inf for diverged episodes: the GA replaces such
     values by the population's worst finite fitness and counts them (see :mod:`cpgjax.optim.ga`).

@@ -21,7 +21,7 @@ import pytest
 from cpgjax.cli import main
 from cpgjax.experiments.evolve import open_run, run_keys
 from cpgjax.io.results import read_attrs, read_run
-from cpgjax.optim.algorithm import ga_algorithm
+from cpgjax.optim.algorithm import make_algorithm
 from cpgjax.optim.factory import make_problem
 from cpgjax.optim.ga import GAConfig
 
@@ -43,7 +43,7 @@ def folder(tmp_path_factory):
     (d / "notrun.h5").write_text("not HDF5\n")
     # a run file with no generation yet, made as `cpgjax evolve --time 0.3 --population 4` makes it
     problem = make_problem(M, time=0.3)
-    algo = ga_algorithm(problem, GAConfig(population=4, generations=3))
+    algo = make_algorithm(problem, GAConfig(population=4, generations=3))
     params = jax.tree.map(jax.numpy.asarray, algo.params)
     open_run(problem, algo, str(d / "run0.h5"), params, run_keys(0)[0], resume=False, overwrite=False, metrics={})
     data = (d / "run0.h5").read_bytes()

@@ -102,3 +102,26 @@ def test_search_space_fits_in_the_genome_space_only_and_keeps_the_given_settings
     assert c == cfg and x.shape == (20, 8)
     with pytest.raises(ValueError, match="unknown space"):
         search_space(rep, idx, "other", cfg)
+
+
+def test_the_studys_medians_per_damage_count_a_level_not_reached_as_infinite():
+    """Three repertoires per damage: a count not reached (None) is infinite in the median, and the median is "not
+    reached" (None) once at least half of the counts are; the GA's median only where the GA ran."""
+    from cpgjax.experiments.adapt import median_count, study_medians
+
+    assert median_count([3, None, 5]) == 5.0 and median_count([3, None, None]) is None
+    assert median_count([4, None]) is None and median_count([2, 7]) == 4.5 and median_count([]) is None
+
+    def row(damage, trials, ga, stop, share):
+        return {"damage": damage, "ite_trials": trials, "ga_evaluations": ga, "ga_budget": 1000,
+                "ite_stop_trial": stop, "ite_stop_share": share}
+
+    rows = [row("leg=AR", 4, None, 6, 0.9), row("leg=PL", None, 300, 20, 0.5), row("leg=AR", 9, 700, 3, 0.7),
+            row("leg=PL", None, None, 11, 0.6), row("leg=AR", None, None, 8, 0.95)]
+    ar, pl = study_medians(rows)
+    assert ar == {"damage": "leg=AR", "repertoires": 3, "ite_trials": 9.0, "ga_evaluations": None,
+                  "ite_stop_trial": 6.0, "ite_stop_share": 0.9}
+    assert pl == {"damage": "leg=PL", "repertoires": 2, "ite_trials": None, "ga_evaluations": None,
+                  "ite_stop_trial": 15.5, "ite_stop_share": 0.55}
+    no_ga = [{k: v for k, v in r.items() if not k.startswith("ga_")} for r in rows]
+    assert "ga_evaluations" not in study_medians(no_ga)[0]

@@ -15,6 +15,7 @@ from cpgjax.io.results import read_run
 from cpgjax.optim import es
 from cpgjax.optim.analytic import analytic_problem, default_optimum
 
+KEY = jax.random.key(9)
 SPHERE = "analytic:sphere:6"      # f = 1 - mean((g - opt)^2) / 0.25, maximum 1 at opt (|opt| <= 0.5, in the box)
 
 
@@ -39,31 +40,41 @@ def test_reflect_mirrors_into_the_box():
                                atol=1e-6)
 
 
+def _scores(fitness, diverged):
+    return {"fitness": jnp.asarray(fitness, jnp.float32), "diverged": jnp.asarray(diverged, bool)}
+
+
 @pytest.mark.parametrize("method", ["cmaes", "snes"])
 def test_an_optimum_outside_the_box_brings_the_search_to_its_face(method):
     """Genes 0 and 2 want to leave the box: the genomes evaluated stay in it, the search settles on its faces
     with a small step size (no flat region outside the box for the step size to grow in)."""
     target = jnp.asarray([1.5, 0.0, -2.0])
-    cfg = es.ESConfig(method=method, population=10, sigma=0.3)
-    init, propose, update = es.make_es(cfg, np.zeros(3, np.float32), -0.8, 0.8)
-    state = init(jax.random.key(0))
-    step = jax.jit(lambda s, k: update(s, -jnp.sum((propose(s) - target) ** 2, axis=1), jnp.zeros(10, bool), k))
+    algo = es.ESConfig(method=method, population=10, sigma=0.3).algorithm(analytic_problem("analytic:sphere:3"))
+
+    def step(s, k):
+        x, s = algo.ask((), s, k, 0)
+        return algo.tell((), s, x, _scores(-jnp.sum((x - target) ** 2, axis=1), jnp.zeros(10, bool)), k, 0)
+
+    state, step = algo.init((), jax.random.key(0)), jax.jit(step)
     for i in range(60):
-        assert float(jnp.max(jnp.abs(propose(state)))) <= np.float32(0.8)
+        assert float(jnp.max(jnp.abs(algo.ask((), state, KEY, 0)[0]))) <= np.float32(0.8)
         state = step(state, jax.random.key(i + 1))
-    np.testing.assert_allclose(np.asarray(propose(state)), np.broadcast_to([0.8, 0.0, -0.8], (10, 3)), atol=0.05)
+    np.testing.assert_allclose(np.asarray(algo.ask((), state, KEY, 0)[0]), np.broadcast_to([0.8, 0.0, -0.8], (10, 3)),
+                               atol=0.05)
 
 
 def test_diverged_samples_never_pull_the_search():
     """A diverged sample (NaN fitness, the flag set) ranks last, whatever its stored fitness."""
-    cfg = es.ESConfig(method="snes", population=4, sigma=0.1)
-    init, propose, update = es.make_es(cfg, np.zeros(2, np.float32), -0.8, 0.8)
-    state = init(jax.random.key(1))
-    f = jnp.asarray([0.1, 0.2, 9.0, jnp.nan])
-    flagged = update(state, f, jnp.asarray([False, False, True, True]), jax.random.key(2))
-    honest = update(state, jnp.asarray([0.1, 0.2, -1e9, -1e9]), jnp.zeros(4, bool), jax.random.key(2))
-    np.testing.assert_array_equal(np.asarray(flagged.real), np.asarray(honest.real))
-    assert np.all(np.isfinite(np.asarray(flagged.real)))
+    algo = es.ESConfig(method="snes", population=4, sigma=0.1).algorithm(analytic_problem("analytic:sphere:2"))
+    state = algo.init((), jax.random.key(1))
+    x = algo.ask((), state, KEY, 0)[0]
+    flagged = algo.tell((), state, x, _scores([0.1, 0.2, 9.0, jnp.nan], [False, False, True, True]),
+                        jax.random.key(2), 0)
+    honest = algo.tell((), state, x, _scores([0.1, 0.2, -1e9, -1e9], [False] * 4), jax.random.key(2), 0)
+    a, b = jax.tree.leaves(flagged), jax.tree.leaves(honest)
+    for u, v in zip(a, b, strict=True):
+        np.testing.assert_array_equal(np.asarray(u), np.asarray(v))
+    assert all(np.all(np.isfinite(np.asarray(u))) for u in a if jnp.issubdtype(u.dtype, jnp.floating))
 
 
 @pytest.mark.parametrize("method", es.METHODS)
@@ -76,7 +87,9 @@ def test_stop_and_resume_equals_uninterrupted(tmp_path, method):
     assert run_search(problem, cfg, part, resume=True)["completed"] == 12
     a, b = read_run(full), read_run(part)
     same_rows(a, b)
+    # the run file keeps its layout: evosax's state as its float and its integer leaves (EvolutionStrategy.save)
     assert a.kind == method and a.diverged.any() and set(a.state) == {"samples", "real", "count"}
+    assert a.state["real"].dtype == np.float32 and a.state["count"].dtype == np.int32
 
 
 def test_config_is_checked():

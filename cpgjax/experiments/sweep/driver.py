@@ -8,10 +8,10 @@ work on any of them, and ``OUT/sweep.json`` records the plan.
 **Batching.**  Runs are grouped by what their algorithm compiles to (GA: population and
 initial spread, every other GA setting is a traced :class:`cpgjax.optim.ga.GAParams` field, the
 cross-over flag included; a search: its whole configuration but the seed).  One generation
-of the sweep is one jitted function: for every group ``vmap(propose)`` over its runs, the
+of the sweep is one jitted function: for every group ``vmap(ask)`` over its runs, the
 ``[R, N, G]`` genomes of *all* groups are concatenated to ``[sum R*N, G]`` for ONE
 ``problem.evaluate`` call (which splits the batch across the host devices, i.e. the CPU
-cores, with ``shard_map``), split back, and ``vmap(update)`` per group.  ``chunk``
+cores, with ``shard_map``), split back, and ``vmap(tell)`` per group.  ``chunk``
 generations run in one ``lax.scan``; the host writes chunk k while chunk k+1 computes.
 
 **Same numbers as single runs.**  A run uses the keys of :func:`cpgjax.experiments.evolve.run_ga` for
@@ -282,7 +282,7 @@ def _write(pending, t_start: float) -> int:
                                  diverged=grows["diverged"][i, r], mutation_rate=float(grows["rate"][i, r]),
                                  wall_time=float(g["wall0"][r] + t_now - t_start),
                                  metrics={k: v[i, r] for k, v in grows["metrics"].items()},
-                                 state={k: v[i, r] for k, v in grows["state"]._asdict().items()}))
+                                 state={k: v[i, r] for k, v in grows["state"].items()}))
             n += n_valid * g["algo"].population
     return n
 
