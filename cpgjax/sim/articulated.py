@@ -32,7 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.contact import bristle, contact_frame, friction, trail_anchor
+from cpgjax.sim.contact import bristle, contact_frame, friction, ground, trail_anchor
 from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import cross, dot, quat_integrate, quat_to_mat
 from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
@@ -517,8 +517,9 @@ def step(model, state, ctrl, var=None):
         damp = jnp.where((state.gq > hi) | (state.gq < lo), model.limit_c, 0.0)
         if model.n_ctrl:
             cj = model.ctrl_joint
-            tau_s = servo_torques(model, tau_pi, state.gv[cj], target_rate, gain, implicit=False)
-            _, _, kd, tmax = servo_gains(model, gain, implicit=False)
+            torque = None if var is None else var.torque
+            tau_s = servo_torques(model, tau_pi, state.gv[cj], target_rate, gain, implicit=False, torque=torque)
+            _, _, kd, tmax = servo_gains(model, gain, implicit=False, torque=torque)
             tau_j = tau_j.at[cj].add(tau_s)
             damp = damp.at[cj].add(jnp.where(jnp.abs(tau_s) < tmax, kd, 0.0))
         for lvl in range(1, lv.depth + 1):
@@ -563,7 +564,7 @@ def _contact_step(model, state, kin, M, tau, var):
     u = _dofs(model, state)
     depth, fr = contact_frame(model, con.world, var)
     touch = depth > 0
-    A, B = model.ground_A, model.ground_B
+    A, B = ground(model, var)
     kb, bp = bristle(model, var)
     mu_s, mu_d = friction(model, var)
     _, z_1, z_2 = fr.comp(con.world - state.anchor)
