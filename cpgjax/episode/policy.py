@@ -146,6 +146,12 @@ class ClosedLoop:
         d = {"coeffs": self.coeffs, "weights": self.weights, "command": self.command, "key": self.key} | kw
         return ClosedLoop(self.family, **d)
 
+    def __len__(self) -> int:          # robots first: the number of controllers
+        return int(self.coeffs.shape[0])
+
+    def __getitem__(self, idx) -> ClosedLoop:   # robots first: a slice of the batch
+        return jax.tree.map(lambda a: a[idx], self)
+
     def __repr__(self) -> str:
         return f"ClosedLoop({self.family.spec}, coeffs {getattr(self.coeffs, 'shape', '?')})"
 
@@ -268,3 +274,21 @@ def table_fields(controller: ClosedLoop, model) -> dict:
     fam = controller.family
     return {"name": fam.name, "inputs": tuple(fam.input_sizes(model)), "outputs": tuple(fam.output_sizes(model)),
             "weights": np.asarray(controller.weights, np.float64)}
+
+
+def stack(controllers: list, model):
+    """One batch (robots first) of one-robot controllers: coefficients [N, n_ctrl, 2K+1] when every one is the
+    open-loop CPG, else a :class:`ClosedLoop` of N in which the open-loop ones have a policy of zeros (which does
+    what their CPG does, bit for bit).  Controllers of two closed-loop families cannot share a batch."""
+    families = {c.family for c in controllers if is_closed(c)}
+    if not families:
+        return np.asarray([np.asarray(c, np.float32) for c in controllers])
+    if len(families) > 1:
+        raise ValueError(f"controllers of {len(families)} closed-loop families "
+                         f"({', '.join(sorted(f.spec for f in families))}): one family at a time")
+    fam = families.pop()
+    shape = (fam.n_out(model), fam.n_in(model))
+    coeffs = np.asarray([np.asarray(c.coeffs if is_closed(c) else c, np.float32) for c in controllers])
+    weights = np.asarray([np.asarray(c.weights, np.float32) if is_closed(c) else np.zeros(shape, np.float32)
+                          for c in controllers])
+    return ClosedLoop(fam, coeffs, weights, np.zeros(len(controllers), np.float32))

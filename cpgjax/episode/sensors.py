@@ -15,8 +15,8 @@ those sensors read, in groups (a closed-loop controller reads some or all of the
 - ``rates`` [2]: the roll and pitch rates, rad/s (a rate gyro: the body's angular velocity about its +y and +x
   axes);
 - ``contact`` [legs]: 1 where a leg's foot touches the ground, else 0 (the touch sensors; a leg and its foot as in
-  :func:`cpgjax.episode.descriptors.legs`; touching as the contact law tests it: some vertex of the foot below the
-  terrain, depth > 0);
+  :func:`cpgjax.episode.descriptors.legs`; touching as the contact law tests it, some vertex of the foot in the
+  terrain, depth > 0, or just on it, depth 0: a robot placed on the ground reads its feet down from t = 0);
 - ``phase`` [2]: ``sin`` and ``cos`` of the CPG's phase (:mod:`cpgjax.episode.policy`);
 - ``command`` [1]: the commanded turning rate, rad/s (0 unless a task sets it);
 - ``bias`` [1]: the constant 1.
@@ -60,7 +60,7 @@ def _feet(model):
 
 
 def touch(model, s, var=None):
-    """[legs, B] 1.0 where a leg's foot touches the terrain (some vertex of it at depth > 0), else 0.0."""
+    """[legs, B] 1.0 where a leg's foot touches the terrain (some vertex of it at depth >= 0), else 0.0."""
     vert, leg, n_legs = _feet(model)
     B = s.x.shape[-1]
     if n_legs == 0:
@@ -70,10 +70,10 @@ def touch(model, s, var=None):
     R = quat_to_mat(s.q[:, body])                                       # [3, 3, nf, B]
     p = s.x[:, body] + matvec(R, jnp.asarray(model.pt_local[:, pts], s.x.dtype)[:, :, None])
     if model.terrain.flat:
-        down = p[2] < 0
+        down = p[2] <= 0
     else:
         zg, _ = terrain_under(model, p[0], p[1], var)
-        down = zg - p[2] > 0
+        down = zg - p[2] >= 0
     out = []
     for k in range(n_legs):                                             # any vertex of the leg's foot
         idx = np.nonzero(leg == k)[0]

@@ -19,7 +19,8 @@ from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.episode.perturb import Perturbations, draw, noise_key, roughened
-from cpgjax.episode.policy import Family, base_genome as policy_base, from_genomes, parse_controller
+from cpgjax.episode.policy import Family, from_genomes, parse_controller
+from cpgjax.episode.policy import base_genome as policy_base
 from cpgjax.io.wl import load_model
 from cpgjax.optim.analytic import analytic_problem
 from cpgjax.optim.problem import Problem
