@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from cpgjax.episode import policy as pol
-from cpgjax.episode.batch import simulate
+from cpgjax.episode.batch import evaluate, simulate
 from cpgjax.episode.rollout import rollout
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
@@ -39,6 +39,22 @@ def _same_bits(model, n):
 def test_a_policy_of_zeros_is_the_open_loop_cpg_bit_for_bit():
     """Zero weights: every modulation exactly 0, the phase the CPG's own sin(2 pi k f0 t) (thesis's springs)."""
     _same_bits(load_model(QUAD), 1)
+
+
+def test_a_closed_loop_robot_gets_the_same_bits_in_chunks_of_16_and_48():
+    """Batch independence (cpgjax/episode/batch.py): a robot's episode does not depend on its neighbours nor on the
+    width of the chunk it runs in, here on one device (the rollout inlined in the caller's program)."""
+    from functools import partial
+
+    m = load_model(QUAD)
+    fam = pol.Family()
+    rng = np.random.default_rng(5)
+    g = np.concatenate([_trots(m, 33).reshape(33, -1), rng.uniform(-0.8, 0.8, (33, fam.n_weights(m)))], 1)
+    c = pol.from_genomes(fam, m, g.astype(np.float32))
+    run = jax.jit(partial(evaluate, m, time=0.2, devices=jax.devices()[:1]))
+    a, b = run(c[:16]), run(c)
+    for k in ("distance", "fitness", "tilt"):
+        np.testing.assert_array_equal(a[k], np.asarray(b[k])[:16], err_msg=k)
 
 
 @pytest.mark.slow   # 30 s of CPU, most of it compiling; fast: the same for one robot on the thesis's springs
@@ -78,7 +94,8 @@ def test_the_genome_is_the_cpg_then_the_policy_genes_scaled():
     c = pol.from_genomes(fam, m, g)
     np.testing.assert_array_equal(c.coeffs, g[:, :40].reshape(3, 8, 5))
     scale = pol.weight_scale(fam, m)
-    assert scale[0, 0] == 0.5 / 0.5 and scale[8, 6] == 1.0 and scale[9, 2] == 0.5    # offset/tilt, freq/bias, amp/contact
+    # offset per tilt, frequency per bias, amplitude per contact
+    assert scale[0, 0] == 0.5 / 0.5 and scale[8, 6] == 1.0 and scale[9, 2] == 0.5
     np.testing.assert_array_equal(c.weights, g[:, 40:].reshape(3, 10, 7) * scale)
     np.testing.assert_allclose(pol.to_genome(c[1], m), g[1], rtol=1e-6)
     assert pol.parse_controller("cpg") is None and pol.parse_controller(None) is None
