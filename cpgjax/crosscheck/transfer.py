@@ -84,6 +84,8 @@ def run_setting(run) -> tuple[str, float | None, str | None]:
         evaluation = SCALES
     if evaluation != "thesis" and falls.get("bristle"):              # a foot stiffened up to 10^D: its own row
         evaluation += f", bristle up to 10^{float(falls['bristle']):g}"
+    if run.meta.get("controller"):                                   # a closed-loop controller family: its own row
+        evaluation += f", {run.meta['controller']}"
     return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
 
 
