@@ -41,16 +41,31 @@ def test_a_policy_of_zeros_is_the_open_loop_cpg_bit_for_bit():
     _same_bits(load_model(QUAD), 1)
 
 
-def test_a_closed_loop_robot_gets_the_same_bits_in_chunks_of_16_and_48():
-    """Batch independence (cpgjax/episode/batch.py): a robot's episode does not depend on its neighbours nor on the
-    width of the chunk it runs in, here on one device (the rollout inlined in the caller's program)."""
+def _batch_of(m, n):
+    fam = pol.Family()
+    rng = np.random.default_rng(5)
+    g = np.concatenate([_trots(m, n).reshape(n, -1), rng.uniform(-0.8, 0.8, (n, fam.n_weights(m)))], 1)
+    return pol.from_genomes(fam, m, g.astype(np.float32))
+
+
+def test_a_closed_loop_robot_gets_the_same_bits_alone_and_in_a_batch():
+    """Batch independence (cpgjax/episode/batch.py): a robot's episode does not depend on its neighbours."""
+    m = load_model(QUAD)
+    c = _batch_of(m, 33)
+    batch = simulate(m, c, time=1.0)
+    for i in (0, 32):
+        alone = simulate(m, c[i:i + 1], time=1.0)          # the program of the test above (one robot)
+        for k in ("distance", "fitness", "tilt"):
+            np.testing.assert_array_equal(alone[k], batch[k][i:i + 1], err_msg=k)
+
+
+@pytest.mark.slow   # 25 s of CPU (two programs); fast: a robot alone and in a batch on the host's devices
+def test_a_closed_loop_robot_gets_the_same_bits_in_chunks_of_16_and_48_on_one_device():
+    """The same on one device (the rollout inlined in the caller's program), in chunks of two widths."""
     from functools import partial
 
     m = load_model(QUAD)
-    fam = pol.Family()
-    rng = np.random.default_rng(5)
-    g = np.concatenate([_trots(m, 33).reshape(33, -1), rng.uniform(-0.8, 0.8, (33, fam.n_weights(m)))], 1)
-    c = pol.from_genomes(fam, m, g.astype(np.float32))
+    c = _batch_of(m, 33)
     run = jax.jit(partial(evaluate, m, time=0.2, devices=jax.devices()[:1]))
     a, b = run(c[:16]), run(c)
     for k in ("distance", "fitness", "tilt"):
