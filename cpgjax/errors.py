@@ -12,11 +12,12 @@ class CpgjaxError(Exception):
 
 
 class DescriptionError(CpgjaxError, ValueError):
-    """A problem in a description or control file, reported as ``path:line: message``."""
+    """A problem in a description or control file, reported as ``path:line: message`` (``path: message`` when
+    it concerns the whole file, ``line`` 0: it is missing, a folder, not text)."""
 
     def __init__(self, path: str, line: int, message: str):
         self.path, self.line, self.message = path, line, message
-        super().__init__(f"{path}:{line}: {message}")
+        super().__init__(f"{path}:{line}: {message}" if line else f"{path}: {message}")
 
 
 class ResultsError(CpgjaxError, RuntimeError):

@@ -1,9 +1,11 @@
-# An evolved gait that walks (the README's GIF row).  Evolved by
+# An evolved gait of models/quadruped.wl that walks (the README's "evolved" GIF), made on the springs pipeline by
 #   cpgjax sweep models/quadruped.wl --gamma 0.01 --pocket 4 --seeds 2 --generations 40 --evaluation robust --perturb fall_survival=on,bristle=3 --out runs/gif-sweep
-#   (402 s on 2 cores shared with other jobs), then seed 1's best:
 #   cpgjax best runs/gif-sweep/ga_n20_mu0.2_g0.01_p4_xoff/s1.h5 --ctl models/quadruped-robust.ctl
-# It walks 1.32 m in 10 s and stays up; `cpgjax transfer` on its run: 0.066 in MuJoCo C against 0.131 here
-# (ratio 0.50), no falls in 32 jittered replays in either engine (2026-11-25).
+# (seed 1's best; its first number below is the robust score the run recorded for it).  In MuJoCo C it scored
+# 0.066 against 0.131 here, with no falls in 32 jittered replays in either engine (cpgjax transfer on its run).
+# What it does with today's code (tests/test_models.py replays each line and checks it):
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-robust.ctl  ->  walks +1.32 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-robust.ctl --pipeline exact  ->  walks +0.51 m in 10 s, stays up
 0.141703
 0.13278216  0.2864794  0.14180012  0.035722304  -0.23589821
 0.109958105  0.21796425  0.17252646  0.13770579  -0.1665127

@@ -58,8 +58,9 @@ def pytest_sessionfinish(session, exitstatus):
 # module-scoped fixtures) they start first, so that no long file is left alone at the end while the other
 # worker idles.  Only the order changes: a stale list costs time, never a result.
 HEAVY_FIRST = (
-    "experiments/test_sweep.py", "optim/test_factory.py", "sim/test_articulated.py", "experiments/test_notebooks.py",
-    "experiments/test_robust.py", "optim/test_es.py", "sim/test_contact.py", "episode/test_rollout.py",
+    "experiments/test_sweep.py", "optim/test_factory.py", "sim/exact/test_exact_step.py", "sim/exact/test_stages.py",
+    "experiments/test_notebooks.py", "experiments/test_robust.py", "optim/test_es.py", "sim/test_contact.py",
+    "episode/test_rollout.py",
     "crosscheck/test_transfer.py", "sim/test_variation.py", "experiments/test_validate.py", "optim/test_ga.py",
     "test_models.py", "experiments/test_stability.py", "crosscheck/test_mjcf.py", "cli/test_replay.py",
     "experiments/test_evolve.py", "render/test_render.py", "cli/test_cli_bad_input.py", "analysis/test_report.py",
@@ -99,6 +100,17 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     terminalreporter.write_line(f"suite: {time.monotonic() - _T0:.0f} s wall, {cpu:.0f} s CPU{procs}, collection "
                                 f"included; the JAX compilation cache {cache}; load average at the end {load} "
                                 "(1, 5, 15 min)")
+
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def tiny_runs(tmp_path_factory):
+    """The suite's shared tiny GA run files (tests/runcases.py: TinyRuns), made on first use in this process."""
+    from runcases import TinyRuns
+
+    return TinyRuns(tmp_path_factory.mktemp("tiny-runs"))
 
 
 def pytest_unconfigure(config):

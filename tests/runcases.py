@@ -16,3 +16,44 @@ def same_rows(a, b, n=None):
         assert set(ga_) == set(gb)
         for k in ga_:
             np.testing.assert_array_equal(ga_[k][:n], gb[k][:n], err_msg=f"{group}/{k}")
+
+
+def other_machine() -> dict[str, str]:
+    """A machine that differs from this one in every field a run records (CPU, vector ISA, every version),
+    whatever this host is: a faked machine built from the real one, never a named CPU that some host has."""
+    from cpgjax.io.results import ISAS, machine
+
+    here = machine()
+    other = {k: f"{v}+other" for k, v in here.items()}
+    other["cpu"] = f"Other CPU (not {here.get('cpu', 'this one')})"
+    other["isa"] = next(i for i in ISAS if i != here.get("isa"))
+    return other
+
+
+# The suite's tiny GA runs of the quadruped, made once per test process and shared by every file that needs a run
+# file (transfer, validation, replay, render, the pipeline records): one compiled GA program per evaluation, where
+# each file made its own runs with settings of its own before.  Settings: 0.3 s episodes, 6 robots, 2 generations,
+# a pocket of 2, seed 3; the robust run as the recommended recipe evaluates (README): a fall scales the score, the
+# foot's bristle up to 10^3 stiffer, 2 replicas.
+TINY_GA = ["--time", "0.3", "--population", "6", "--generations", "2", "--pocket", "2", "--seed", "3", "--quiet"]
+TINY_TIME = 0.3
+TINY_ROBUST = ["--evaluation", "robust", "--perturb", "replicas=2,fall_survival=on,bristle=3"]
+
+
+class TinyRuns:
+    """``runs["thesis"]``, ``runs["robust"]``: paths of run files made on first use (read them, or copy them to
+    change them: other tests read the same files)."""
+
+    def __init__(self, folder):
+        self.folder = folder
+        self._made: dict[str, str] = {}
+
+    def __getitem__(self, kind: str) -> str:
+        if kind not in self._made:
+            from cpgjax import cli
+
+            out = str(self.folder / f"{kind}.h5")
+            extra = {"thesis": [], "robust": TINY_ROBUST}[kind]
+            assert cli.main(["evolve", "models/quadruped.wl", *TINY_GA, *extra, "--out", out]) == 0
+            self._made[kind] = out
+        return self._made[kind]

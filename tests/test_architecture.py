@@ -91,6 +91,28 @@ def test_sim_is_pure_physics():
             assert {layer(d) for d in deps} <= {"sim", "base"}, (mod, deps)
 
 
+PIPELINES = ("cpgjax.sim.springs", "cpgjax.sim.exact")
+HOLDS_THE_PIPELINES = {"cpgjax.sim.model", "cpgjax.sim.pipeline"}     # a pipeline's part of the Model; its step
+
+
+def _pipeline(mod: str) -> str | None:
+    return next((p for p in PIPELINES if mod == p or mod.startswith(p + ".")), None)
+
+
+def test_the_pipelines_do_not_import_each_other():
+    """Inside sim, each pipeline (springs/, exact/) imports the shared modules and itself only; a shared module
+    imports a pipeline only to hold its part of the Model (model.py) or to run its step (pipeline.py)."""
+    for mod, deps in GRAPH.items():
+        if layer(mod) != "sim":
+            continue
+        mine = _pipeline(mod)
+        theirs = sorted(d for d in deps if _pipeline(d) and _pipeline(d) != mine)
+        if mine is None and mod in HOLDS_THE_PIPELINES:
+            continue
+        assert not theirs, f"{mod} imports {theirs}: {'the other pipeline' if mine else 'a pipeline'}"
+    assert {_pipeline(d) for d in GRAPH["cpgjax.sim.pipeline"]} >= set(PIPELINES)      # the walk saw them
+
+
 def test_no_import_cycle():
     state: dict[str, int] = {}        # 1: on the current path, 2: done
     path: list[str] = []

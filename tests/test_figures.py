@@ -7,7 +7,7 @@ README.md lists each GIF under a ``<!-- figures -->`` marker, one table row each
 the arguments of the ``cpgjax render`` that drew ``docs/figures/render-NAME.gif`` and what the episode
 drawn does.  The tests check that ``make figures`` draws each GIF with exactly those arguments, and replay
 each controller for the same time with ``cpgjax simulate`` (the same episode the renderer records): the
-distance within the tolerance below, and whether the robot falls, exactly.  ``UPDATE_README=1`` rewrites
+distance within the tolerance of tests/replays.py, and whether the robot falls, exactly.  ``UPDATE_README=1`` rewrites
 the claims from a fresh run instead (as ``make readme`` does for the examples).
 """
 
@@ -19,17 +19,13 @@ import shlex
 from pathlib import Path
 
 import pytest
-
-from cpgjax import cli
+from replays import check, replay, updated
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 MAKEFILE = ROOT / "Makefile"
-# The claim's distance is written with two decimals (half a unit: 0.005 m) and varies across CPUs by the
-# spread tests/test_readme.py measured on the trot (1.4 %, its tolerance 3 %): both together.
-RTOL, ATOL = 0.03, 0.005
 ROW = re.compile(r"^\| (?P<name>[a-z]+) \| `(?P<args>[^`]+)` \| (?P<claim>[^|]+?) \|$", re.M)
-CLAIM = re.compile(r"(?P<verb>[a-z]+) (?P<dist>[-+]\d+\.\d\d) m(?P<what>[^,]*), (?P<fall>stays up|falls)$")
+FIX = "redraw it (`make figures`) and update its line (UPDATE_README=1 pytest tests/test_figures.py)"
 
 
 def figures() -> list[tuple[str, str, str]]:
@@ -37,35 +33,6 @@ def figures() -> list[tuple[str, str, str]]:
     table = text[text.index("<!-- figures -->"):]
     table = table[:table.index("\n\n")]
     return [(m["name"], m["args"], m["claim"]) for m in ROW.finditer(table)]
-
-
-def replay(args: str, capsys) -> tuple[float, bool]:
-    """Distance and fall of the episode `cpgjax render ARGS` draws, replayed by `cpgjax simulate`."""
-    argv = shlex.split(args)
-    keep, i = [], 0
-    while i < len(argv):                       # simulate takes the model, --ctl, --time, --terrain, --pipeline
-        if argv[i] in ("--camera", "--fps", "--size", "--out", "--engine"):
-            i += 2
-            continue
-        keep.append(argv[i])
-        i += 1
-    capsys.readouterr()
-    assert cli.main(["simulate", *keep]) == 0
-    out = capsys.readouterr().out
-    dist = float(re.search(r"^distance\s+([-+]\d+\.\d+) m", out, re.M).group(1))
-    fell = re.search(r"^fallen\s+(yes|no)", out, re.M).group(1) == "yes"
-    return dist, fell
-
-
-def check(claim: str, dist: float, fell: bool, name: str) -> None:
-    m = CLAIM.match(claim)
-    assert m, f"README.md: the claim of GIF {name!r} should read 'VERB +D.DD m[ …], stays up|falls': {claim!r}"
-    want = float(m["dist"])
-    assert abs(dist - want) <= RTOL * abs(want) + ATOL, (
-        f"GIF {name!r}: the controller now goes {dist:+.3f} m, README.md says {want:+.2f} m: redraw it "
-        "(`make figures`) and update its line (UPDATE_README=1 pytest tests/test_figures.py)")
-    now = "falls" if fell else "stays up"
-    assert now == m["fall"], f"GIF {name!r}: README.md says it {m['fall']}, it now {now}"
 
 
 def test_the_readme_lists_its_gifs_and_each_exists():
@@ -94,20 +61,19 @@ SLOW = {"car"}
 @pytest.mark.parametrize("name,args,claim", [
     pytest.param(n, a, c, id=n, marks=[pytest.mark.slow] if n in SLOW else []) for n, a, c in figures()])
 def test_each_gif_caption_is_what_its_controller_does_today(name, args, claim, capsys):
-    dist, fell = replay(args, capsys)
+    dist, fell = replay(shlex.split(args), capsys)
     if os.environ.get("UPDATE_README"):
-        m = CLAIM.match(claim)
-        new = f"{m['verb']} {dist:+.2f} m{m['what']}, {'falls' if fell else 'stays up'}"
+        new = updated(claim, dist, fell)
         README.write_text(README.read_text().replace(f"`{args}` | {claim} |", f"`{args}` | {new} |"))
         return
-    check(claim, dist, fell, name)
+    check(claim, dist, fell, f"README.md, GIF {name!r}", FIX)
 
 
 def test_the_check_fails_on_a_wrong_distance_or_fall():
-    check("walks +0.79 m, stays up", 0.80, False, "x")                   # within 3 % + 0.005 m
+    check("walks +0.79 m, stays up", 0.80, False, "x", FIX)                   # within 3 % + 0.005 m
     with pytest.raises(AssertionError):
-        check("walks +0.79 m, stays up", 0.84, False, "x")
+        check("walks +0.79 m, stays up", 0.84, False, "x", FIX)
     with pytest.raises(AssertionError):
-        check("walks +0.79 m, stays up", 0.79, True, "x")
+        check("walks +0.79 m, stays up", 0.79, True, "x", FIX)
     with pytest.raises(AssertionError):
-        check("walks about a metre", 0.79, False, "x")
+        check("walks about a metre", 0.79, False, "x", FIX)

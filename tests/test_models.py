@@ -1,12 +1,21 @@
-"""The four example robots of Appendix A do what the thesis describes."""
+"""The four example robots of Appendix A do what the thesis describes, and every shipped controller does what its
+header says."""
+
+import glob
+import os
+import re
+import shlex
 
 import numpy as np
 import pytest
+from replays import check, replay
 
 from cpgjax.analysis.contacts import feet_down
 from cpgjax.episode.batch import simulate
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def run(name, ctl=True, record=False, time=None):
@@ -52,3 +61,36 @@ def test_hexapod_walks_with_a_tripod_gait():
     b = feet_down(m, r["traj"], ["LoAL", "LoCR", "LoPL"], tol=3e-3)[t]
     assert np.mean(a + b >= 3) > 0.8  # mostly three or more feet down
     assert np.corrcoef(a, b)[0, 1] < -0.3  # the two tripods alternate
+
+
+# Every shipped controller says in its header how it was made and what it does with today's code, one line per
+# replay: "#   cpgjax simulate ARGS  ->  CLAIM".  Each line is replayed here (the quadruped's springs lines share
+# one compiled program with the README's example, the 6 s lines with tests/test_figures.py's GIF replays).
+HEADER_LINE = re.compile(r"^#\s+cpgjax simulate (?P<args>.+?)\s+->\s+(?P<claim>.+?)\s*$", re.M)
+CONTROLLERS = sorted(glob.glob(os.path.join(ROOT, "models", "*.ctl")))
+
+
+def header_claims(path: str) -> list[tuple[str, str]]:
+    header = "".join(line for line in open(path) if line.startswith("#"))
+    return [(m["args"], m["claim"]) for m in HEADER_LINE.finditer(header)]
+
+
+def test_every_shipped_controller_has_a_header_that_says_how_it_was_made_and_what_it_does():
+    assert CONTROLLERS
+    for path in CONTROLLERS:
+        claims = header_claims(path)
+        assert claims, f"{path}: its header has no '#   cpgjax simulate ARGS  ->  CLAIM' line"
+        name = os.path.basename(path)
+        for args, _ in claims:
+            assert f"--ctl models/{name}" in args, f"{path}: a header line replays another controller: {args}"
+
+
+# The exact pipeline's lines compile a program of their own (15-25 s of CPU each): marked slow (make test-slow).
+@pytest.mark.parametrize("path,args,claim", [
+    pytest.param(p, a, c, id=f"{os.path.basename(p)}:{' '.join(a.split()[3:]) or 'default'}",
+                 marks=[pytest.mark.slow] if "--pipeline exact" in a else [])
+    for p in CONTROLLERS for a, c in header_claims(p)])
+def test_each_shipped_controller_does_what_its_header_says(path, args, claim, capsys, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    dist, fell = replay(shlex.split(args), capsys)
+    check(claim, dist, fell, f"{path}: '{args}'", "replay it and update the header line")

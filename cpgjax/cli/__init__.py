@@ -32,10 +32,18 @@ def build_parser() -> Parser:
     p = Parser(prog="cpgjax",
                description="Evolve open-loop CPG controllers for walking robots in a penalty-method JAX "
                            "simulator (after G. Grasso, 2000).")
+    from cpgjax import __version__
+
+    p.add_argument("--version", action="version", version=f"cpgjax {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in GROUPS:
         importlib.import_module(f"cpgjax.cli.{name}").register(sub)
+    # a command's --help opens with what it does: its one-line help where no longer description was written
+    for action in sub._choices_actions:
+        cmd = sub.choices[action.dest]
+        if not cmd.description:
+            cmd.description = action.help[:1].upper() + action.help[1:] + "." if action.help else None
     return p
 
 

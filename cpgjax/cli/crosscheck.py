@@ -13,13 +13,13 @@ from cpgjax.cli import options as o
 
 def register(subparsers: Any) -> None:
     e = subparsers.add_parser("export", help="write the model as MJCF for MuJoCo / MJX")
-    e.add_argument("model", help="robot description (.wl)")
+    o.model_argument(e)
     e.add_argument("--out", help="output .xml (default: beside the model)")
-    e.add_argument("--terrain", type=o.terrain, help="terrain (default: the file's)")
+    o.terrain_option(e)
     e.set_defaults(func=cmd_export)
 
     c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
-    c.add_argument("model", help="robot description (.wl)")
+    o.model_argument(c)
     c.add_argument("--ctl", nargs="*", help="controllers (.ctl)")
     c.add_argument("--controllers", nargs="*", metavar="RUN.h5", help="GA runs: their 8 best distinct genomes")
     c.add_argument("--random", type=o.count0, default=16, help="random controllers in [-0.8, 0.8] (default 16)")
@@ -27,14 +27,14 @@ def register(subparsers: Any) -> None:
                    help="the hand-written trot with N(0, 0.1) added to every gene (default 16)")
     c.add_argument("--perturb-ctl", help="controller to perturb (default models/quadruped-trot.ctl)")
     c.add_argument("--n", type=o.count, help="at most this many controllers")
-    c.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax)")
-    c.add_argument("--terrain", type=o.terrain, help="terrain (default: the file's)")
+    o.time_option(c)
+    o.terrain_option(c)
     c.add_argument("--show", type=o.count0, default=0, help="which controller to plot (index, default 0)")
     c.add_argument("--no-mjx", action="store_true", help="skip MJX (slow to compile)")
     c.add_argument("--no-ceiling", action="store_true",
                    help="skip MuJoCo C and the penalty simulator at half their steps (the rank correlation each "
                         "engine has with itself: the ceiling)")
-    c.add_argument("--seed", type=o.seed, default=0, help="random seed (default 0)")
+    o.seed_option(c)
     _variant_options(c)
     o.pipeline_option(c, "the model file's Pipeline, else springs; our simulator's side only, MuJoCo's model does "
                          "not depend on it")
@@ -51,7 +51,7 @@ def register(subparsers: Any) -> None:
     t.add_argument("runs", nargs="+", metavar="RUN.h5|SWEEP_DIR")
     t.add_argument("--replays", type=o.count, default=32, help="jittered replays per run (default 32)")
     t.add_argument("--jitter", type=o.nonneg, default=1e-3, help="sd of the gene jitter, rad (default 1e-3)")
-    t.add_argument("--seed", type=o.seed, default=0, help="random seed of the jitter and the validation (default 0)")
+    o.seed_option(t, what="random seed of the jitter and the validation")
     t.add_argument("--pick", choices=("best", "validated"), default="best",
                    help="which controller of each run: the best score it recorded (default), or the champion of a "
                         "validation (--candidates, --episodes)")
@@ -69,9 +69,7 @@ def register(subparsers: Any) -> None:
 
 def _variant_options(p: argparse.ArgumentParser) -> None:
     """Options that change our simulator's side only (MuJoCo's model does not depend on them)."""
-    p.add_argument("--dt", type=o.step,
-                   help="our simulator's step (default: the model's TimeStep, its ExactTimeStep on exact joints; "
-                        "5e-4 s for models/quadruped.wl)")
+    o.dt_option(p)
     p.add_argument("--joint-spring", type=o.positive, nargs=2, metavar=("ALPHA", "BETA"),
                    help="our pivot springs' stiffness [N/m] and damping [N s/m] (eq. 3.6; default: the model's "
                         "JointSpring, 3e5 300 for models/quadruped.wl); stiffer ones need a smaller --dt "

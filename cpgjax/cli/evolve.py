@@ -22,7 +22,7 @@ GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossov
 SEARCH_OPTIONS = ("method", "samples", "batch", "M", "width_end", "seed", "chunk")
 ES_OPTIONS = ("method", "samples", "population", "sigma", "lr", "seed", "chunk")
 ES_METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")   # cpgjax.optim.es.METHODS (no import at start-up)
-PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline", "controller")
+PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline", "start", "controller")
 
 
 def register(subparsers: Any) -> None:
@@ -35,42 +35,27 @@ def register(subparsers: Any) -> None:
     d, s, e = GAConfig(), SearchConfig(), es.ESConfig()
 
     def common(p: argparse.ArgumentParser, kind: str) -> None:
-        p.add_argument("model", metavar="MODEL.wl",
-                       help="robot model (.wl); or analytic:sphere:G / analytic:diverging:G (test/demo)")
-        p.add_argument("--time", type=o.seconds, default=None, help="episode length in s (default: the model's)")
-        p.add_argument("--terrain", type=o.terrain, default=None,
-                       help=f"{o.TERRAIN_HELP} (default: the model's)")
-        p.add_argument("--delta", type=o.positive, default=None,
-                       help=f"delta of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
+        o.model_argument(p, help="robot description (.wl); or analytic:sphere:G / analytic:diverging:G (test/demo)")
+        o.time_option(p)
+        o.terrain_option(p)
+        o.delta_option(p, of=f"{DEFAULT_DELTA:g}")
         p.add_argument("--replicas", type=o.int_in(1, 1000), default=None,
                        help="score each controller as the mean of R episodes with genes jittered by 1e-3 "
                             "(default 1, the thesis; see docs/evolution.md, 'A noisy fitness')")
-        p.add_argument("--evaluation", choices=("thesis", "robust"), default=None,
-                       help="thesis: one exact episode per controller (eq. 4.6, the default); robust: the mean of "
-                            "R episodes with fresh perturbations each generation (pose, terrain roughness, friction, "
-                            "masses, servo gains, gene jitter; a fall ends the fitness) -- docs/evolution.md")
-        p.add_argument("--perturb", type=o.perturbations, default=None, metavar="KEY=VALUE,...",
-                       help="robust evaluation ranges, e.g. replicas=8,roughness=0.005 (defaults: replicas 4, "
-                            "lift 0.005 m, tilt 0.02 rad, roughness 0 m (e.g. 0.003: 1.8x slower), friction/mass/gain "
-                            "10/5/10 %%, "
-                            "jitter 1e-3, fall_ends on, fall_zero off: on, a fall forfeits the episode; "
-                            "fall_survival off: on, a fall scales the episode's score by the share of it "
-                            "before the fall; off: torque, stiffness, damping, relief, and for closed-loop "
-                            "controllers noise, latency); preset=domain: domain randomisation (docs/evolution.md)")
+        o.evaluation_options(p)
+        p.add_argument("--start", default=None, metavar="CTL",
+                       help="start the search from this controller (.ctl) instead of the thesis's one 0.5 Hz "
+                            "sinusoid per joint (the GA moves each of its genes by --init-spread); recorded in the "
+                            "run file")
         o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
         o.controller_option(p)
-        p.add_argument("--seed", type=o.seed, default=None, help=f"random seed (default {d.seed})")
+        o.seed_option(p, None, shown=d.seed)
         p.add_argument("--chunk", type=o.count, default=None,
                        help=f"generations per jitted chunk; a kill loses at most the chunk in flight "
                             f"(default {d.chunk})")
         p.add_argument("--out", default=None, help=f"results file (default runs/MODEL-{kind}-sSEED.h5)")
-        g = p.add_mutually_exclusive_group()
-        g.add_argument("--resume", action="store_true", help="continue the run in --out")
-        g.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-        p.add_argument("--allow-other-machine", action="store_true",
-                       help="--resume a run computed on another CPU or with other versions (refused otherwise: "
-                            "the numbers would mix; the file records the switch, docs/reproducibility.md)")
-        p.add_argument("--quiet", action="store_true", help="no progress bar")
+        o.run_file_options(p)
+        o.quiet_option(p)
 
     p = subparsers.add_parser("evolve", help="evolve CPG controllers with the genetic algorithm (Ch. 4.3)",
                               description="Evolve CPG controllers with the GA of Ch. 4.3 / 6.2; results in HDF5.")
@@ -123,7 +108,7 @@ def register(subparsers: Any) -> None:
                    help="the run's champion by validation instead: its best distinct genomes re-scored over fresh "
                         "perturbed episodes, the same for each, the highest mean kept (docs/evolution.md)")
     o.validation_options(p)
-    p.add_argument("--seed", type=o.seed, default=0, help="validation: random seed of its episodes (default 0)")
+    o.seed_option(p, what="validation: random seed of its episodes")
     o.pipeline_option(p, f"{o.RUN_PIPELINE}; --validate only")
     p.set_defaults(func=cmd_best)
 

@@ -189,6 +189,92 @@ def controller_option(p: argparse.ArgumentParser) -> None:
 
 TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
 
+# --- the options many commands share, each declared here once ----------------------------------------
+# (a command passes what its default is, when that differs: a run's recorded setting, or a fixed number)
+
+MODEL_FILE = "the model file's"
+RUN_OR_FILE = "the run's, or the model file's"
+
+
+def model_argument(p: argparse.ArgumentParser, *, metavar: str = "MODEL.wl", help: str | None = None,
+                   optional: bool = False) -> None:
+    """The robot model, the first positional argument of every command that takes one (``MODEL.wl``);
+    ``optional``: it may be left out, and is then ``models/quadruped.wl`` (:func:`default_model`)."""
+    text = help or "robot description (.wl)"
+    if optional:
+        p.add_argument("model", nargs="?", default=default_model(), metavar=metavar,
+                       help=f"{text} (default: models/quadruped.wl)")
+    else:
+        p.add_argument("model", metavar=metavar, help=text)
+
+
+def time_option(p: argparse.ArgumentParser, default: float | None = None, of: str = MODEL_FILE) -> None:
+    """``--time SECONDS``: the simulated length of an episode; ``None``: ``of``'s TimeMax."""
+    what = f"{default:g} s" if default is not None else f"{of} TimeMax"
+    p.add_argument("--time", type=seconds, default=default, metavar="SECONDS",
+                   help=f"simulated seconds per episode (default: {what})")
+
+
+def terrain_option(p: argparse.ArgumentParser, of: str = MODEL_FILE) -> None:
+    """``--terrain SPEC`` (:data:`TERRAIN_HELP`), checked at parse time; ``None``: ``of``'s Terrain."""
+    p.add_argument("--terrain", type=terrain, default=None, metavar="SPEC",
+                   help=f"the ground: {TERRAIN_HELP} (default: {of} Terrain, else flat)")
+
+
+def delta_option(p: argparse.ArgumentParser, of: str | None = None) -> None:
+    """``--delta``: the fitness's delta (eq. 4.5); ``of``: where its default comes from instead of the thesis's."""
+    from cpgjax.episode.fitness import DEFAULT_DELTA
+
+    p.add_argument("--delta", type=positive, default=None if of else DEFAULT_DELTA,
+                   help=f"delta of the fitness, eq. 4.5 (default: {of or f'{DEFAULT_DELTA:g}'})")
+
+
+def seed_option(p: argparse.ArgumentParser, default: int | None = 0, what: str = "random seed",
+                shown: int | None = None) -> None:
+    """``--seed N``; ``default=None`` with ``shown``: left to the config, whose default is ``shown``."""
+    p.add_argument("--seed", type=seed, default=default, help=f"{what} (default {default if shown is None else shown})")
+
+
+def evaluation_options(p: argparse.ArgumentParser) -> None:
+    """``--evaluation thesis|robust`` and ``--perturb KEY=VALUE,...`` (cpgjax.episode.perturb; docs/evolution.md)."""
+    p.add_argument("--evaluation", choices=("thesis", "robust"), default=None,
+                   help="thesis: one exact episode per controller (eq. 4.6, the default); robust: the mean of "
+                        "R episodes with fresh perturbations each generation (pose, terrain roughness, friction, "
+                        "masses, servo gains, gene jitter; a fall ends the fitness) -- docs/evolution.md")
+    p.add_argument("--perturb", type=perturbations, default=None, metavar="KEY=VALUE,...",
+                   help="robust evaluation ranges, e.g. replicas=8,roughness=0.005 (defaults: replicas 4, "
+                        "lift 0.005 m, tilt 0.02 rad, roughness 0 m (e.g. 0.003: 1.8x slower), friction/mass/gain "
+                        "10/5/10 %%, jitter 1e-3, fall_ends on, fall_zero off: on, a fall forfeits the episode; "
+                        "fall_survival off: on, a fall scales the episode's score by the share of it "
+                        "before the fall; off: torque, stiffness, damping, relief, and for closed-loop controllers "
+                        "noise, latency); preset=domain: domain randomisation (docs/evolution.md)")
+
+
+def run_file_options(p: argparse.ArgumentParser, what: str = "run", *, resume: bool = True) -> None:
+    """``--resume`` / ``--overwrite`` (one or the other) and ``--allow-other-machine`` of a command that writes a
+    results file; ``resume=False``: resuming is what the command does anyway (a sweep), only ``--overwrite``."""
+    if resume:
+        g = p.add_mutually_exclusive_group()
+        g.add_argument("--resume", action="store_true", help=f"continue the {what} in --out")
+        g.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    else:
+        p.add_argument("--overwrite", action="store_true", help=f"start every {what} anew")
+    p.add_argument("--allow-other-machine", action="store_true",
+                   help=f"continue a {what} computed on another CPU or with other versions (refused otherwise: "
+                        "the numbers would mix; the file records the switch, docs/reproducibility.md)")
+
+
+def quiet_option(p: argparse.ArgumentParser) -> None:
+    """``--quiet``: no progress bar."""
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def dt_option(p: argparse.ArgumentParser) -> None:
+    """``--dt SECONDS``: the integration step, else the model file's."""
+    p.add_argument("--dt", type=step, metavar="SECONDS",
+                   help="integration step (default: the file's TimeStep, else 5e-4 s; with --pipeline exact "
+                        "its ExactTimeStep, else its TimeStep, else 2e-3 s)")
+
 PIPELINE_HELP = ("the physics pipeline: springs (the thesis's: every body free, each joint a stiff pivot spring, "
                  "eq. 3.6) or exact (generalized coordinates: a floating base and one angle per revolute joint, "
                  "default step 2 ms)")

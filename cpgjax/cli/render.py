@@ -30,15 +30,15 @@ def register(subparsers: Any) -> None:
         description="Render one episode of our simulator (the exact recorded poses) with MuJoCo's renderer: the "
                     "terrain, the feet in contact (red dots) and a caption with time, distance and fitness. "
                     "MODEL is a .wl file (with --ctl) or a run file RUN.h5 (its best controller).")
-    r.add_argument("model", metavar="MODEL.wl|RUN.h5", help="robot description, or a GA run file")
+    o.model_argument(r, metavar="MODEL.wl|RUN.h5", help="robot description (.wl), or a GA run file")
     r.add_argument("--ctl", help="controller (.ctl) for a .wl model; without it every servo holds angle 0")
     r.add_argument("--generation", type=int, metavar="G",
                    help="RUN.h5: the best of generation G (negative: from the end) instead of the whole run's best")
     r.add_argument("--cell", metavar="CELL",
                    help="a repertoire (cpgjax repertoire): the elite of this cell: best, an index, or a descriptor "
                         "(comma-separated values: the cell it falls in)")
-    r.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax, or the run's)")
-    r.add_argument("--terrain", type=o.terrain, help=o.TERRAIN_HELP + " (default: the file's, or the run's)")
+    o.time_option(r, of=o.RUN_OR_FILE)
+    o.terrain_option(r, of=o.RUN_OR_FILE)
     r.add_argument("--out", help="output .mp4 or .gif (default: MODEL's name with .mp4, in the current folder)")
     r.add_argument("--fps", type=fps, default=30.0, help="frames per second of the video and of the recording "
                                                           "(default 30)")
@@ -51,7 +51,7 @@ def register(subparsers: Any) -> None:
                    help="ours: our simulator; mujoco: the same controller in MuJoCo C; both: side by side "
                         "(default ours)")
     o.pipeline_option(r, "the model file's Pipeline, else springs; for a run file, the run's, as it recorded")
-    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    o.quiet_option(r)
     r.set_defaults(func=cmd_render)
 
 

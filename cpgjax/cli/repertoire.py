@@ -60,7 +60,7 @@ def register(subparsers: Any) -> None:
         description="MAP-Elites over a grid of behaviour descriptors (each leg's duty factor, or forward speed x "
                     "turning rate), computed online in the episode; every evaluation is written to an HDF5 run "
                     "file, from which the archive is rebuilt exactly (--resume continues bit for bit).")
-    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl)")
+    o.model_argument(p)
     p.add_argument("--descriptor", choices=DESCRIPTORS, default=None,
                    help=f"duty: each leg's duty factor (Cully et al. 2015); speed-turn: forward speed (m/s) x "
                         f"turning rate (rad/s) (default {d.descriptor})")
@@ -86,21 +86,17 @@ def register(subparsers: Any) -> None:
                    help=f"fitness lower bound of the QD-score (default {d.qd_offset:g})")
     p.add_argument("--keep-fallen", action="store_true", default=None,
                    help="insert robots that fell too (body past 60 degrees; default: never, a fall is not a gait)")
-    p.add_argument("--time", type=o.seconds, default=None, help=f"episode length in s (default {DEFAULT_TIME:g})")
-    p.add_argument("--terrain", type=o.terrain, default=None, help=f"{o.TERRAIN_HELP} (default: the model's)")
+    o.time_option(p, of=f"{DEFAULT_TIME:g} s, not the model file's")
+    o.terrain_option(p)
     o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
     p.add_argument("--damage", default=None, metavar="SPEC",
                    help="build the repertoire on a damaged robot (leg=AR, locked=KneeAR, weak=HipPL:0.3; "
                         "docs/repertoire.md)")
-    p.add_argument("--seed", type=o.seed, default=None, help=f"random seed (default {d.seed})")
+    o.seed_option(p, None, shown=d.seed)
     p.add_argument("--chunk", type=o.count, default=None, help=f"generations per jitted chunk (default {d.chunk})")
     p.add_argument("--out", default=None, help="results file (default runs/MODEL-repertoire-sSEED.h5)")
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--resume", action="store_true", help="continue the repertoire in --out")
-    g.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-    p.add_argument("--allow-other-machine", action="store_true",
-                   help="--resume a run computed on another CPU or with other versions")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    o.run_file_options(p, "repertoire")
+    o.quiet_option(p)
     p.set_defaults(func=cmd_repertoire)
 
     from cpgjax.optim.ite import ITEConfig
@@ -112,9 +108,9 @@ def register(subparsers: Any) -> None:
         description="Bayesian optimisation over a repertoire's elites (a Gaussian process over the descriptor, "
                     "the archive's fitness as its prior mean; Cully et al. 2015) on a damaged robot, which it only "
                     "observes through each trial's fitness.")
-    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl): the repertoire's")
+    o.model_argument(p, help="robot description (.wl): the repertoire's")
     p.add_argument("--repertoire", required=True, nargs="+", metavar="REP.h5",
-                   help="a cpgjax repertoire file; several (one per seed): the study of docs/repertoire.md")
+                   help="a cpgjax repertoire file; several (one per seed): the study of docs/results/repertoire.md")
     p.add_argument("--damage", required=True, action="append", metavar="SPEC",
                    help="leg=AR | locked=KneeAR | weak=HipPL:0.3, several joined by ',' (none: intact); "
                         "repeat the option for a study over damages")
@@ -158,7 +154,7 @@ def register(subparsers: Any) -> None:
                     "one) whose turning rate best reduces the heading error to the next waypoint, from the state "
                     "it is in, for one cycle, and walks the one that leaves the least path to walk without its "
                     "body tilting past --safe-tilt (docs/repertoire.md, Steering).")
-    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl): the repertoire's")
+    o.model_argument(p, help="robot description (.wl): the repertoire's")
     p.add_argument("--repertoire", required=True, metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
     p.add_argument("--path", required=True, metavar="SPEC",
                    help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m)")
@@ -241,9 +237,14 @@ def cmd_adapt(args: argparse.Namespace) -> int:
         raise ValueError("several --repertoire or --damage: add --study (one adaptation takes one of each)")
     r = adapt(args.model, args.repertoire[0], args.damage[0], cfg, space=args.space,
               fit=args.rho is None and args.noise is None)
+    from cpgjax.optim.mapelites import describe
+
+    names = r["descriptor_names"]
     for i, t in enumerate(r["trials"]):
-        print(f"trial {i + 1:>2}: cell {t['cell']:>6}  predicted {t['predicted']:+.4f}  observed {t['fitness']:+.4f}")
-    print(f"{r['damage']}: best {r['best_fitness']:+.4f} (cell {r['best_cell']}) after {len(r['trials'])} trials; "
+        print(f"trial {i + 1:>2}: cell {t['cell']:>6} ({describe(names, t['descriptor'])})  predicted "
+              f"{t['predicted']:+.4f}  observed {t['fitness']:+.4f}")
+    print(f"{r['damage']}: best {r['best_fitness']:+.4f} (cell {r['best_cell']}: "
+          f"{describe(names, r['best_descriptor'])}) after {len(r['trials'])} trials; "
           f"the repertoire's best on the intact robot {r['prior_best']:+.4f}; stopped: {r['stop']}; the GP over the "
           f"{r['space']} (rho {r['config']['rho']:g}, noise {r['config']['noise']:g})")
     if args.out:

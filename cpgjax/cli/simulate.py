@@ -12,35 +12,30 @@ from cpgjax.cli import options as o
 
 
 def register(subparsers: Any) -> None:
-    from cpgjax.episode.fitness import DEFAULT_DELTA
 
     s = subparsers.add_parser("simulate", help="run one episode of a model (and a .ctl controller)")
-    s.add_argument("model", help="robot description (.wl)")
+    o.model_argument(s)
     s.add_argument("--ctl", help="controller (.ctl); without it every servo holds angle 0")
-    s.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax)")
-    s.add_argument("--terrain", type=o.terrain, help=o.TERRAIN_HELP)
+    o.time_option(s)
+    o.terrain_option(s)
     s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
-    s.add_argument("--dt", type=o.step,
-                   help="integration step (default: the file's TimeStep, else 5e-4 s; with --pipeline exact "
-                        "its ExactTimeStep, else its TimeStep, else 2e-3 s)")
+    o.dt_option(s)
     o.pipeline_option(s)
     s.add_argument("--gravity", type=o.finite, help="gravity [m/s^2] (default: the file's, 9.81)")
-    s.add_argument("--delta", type=o.positive, default=DEFAULT_DELTA,
-                   help=f"delta of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
+    o.delta_option(s)
     s.set_defaults(func=cmd_simulate)
 
     r = subparsers.add_parser("robustness",
                               help="replay a controller with its genes jittered: mean and spread of fitness")
-    r.add_argument("model", help="robot description (.wl)")
+    o.model_argument(r)
     r.add_argument("--ctl", required=True, help="controller (.ctl)")
     r.add_argument("--n", type=o.count, default=64, help="replays per jitter (default 64)")
     r.add_argument("--jitter", type=o.list_of(o.nonneg, "expected numbers >= 0, e.g. 1e-6,1e-4"),
                    default=[1e-6, 1e-4, 1e-2], help="standard deviations of the gene offsets (default 1e-6,1e-4,1e-2)")
-    r.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's TimeMax)")
-    r.add_argument("--terrain", type=o.terrain, help="terrain (default: the file's)")
-    r.add_argument("--delta", type=o.positive, default=DEFAULT_DELTA,
-                   help=f"delta of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
-    r.add_argument("--seed", type=o.seed, default=0, help="random seed of the offsets (default 0)")
+    o.time_option(r)
+    o.terrain_option(r)
+    o.delta_option(r)
+    o.seed_option(r, what="random seed of the offsets")
     o.pipeline_option(r)
     r.set_defaults(func=cmd_robustness)
 

@@ -44,7 +44,7 @@ def register(subparsers: Any) -> None:
     s.add_argument("--seeds", type=o.count, default=d.seeds, help=f"rough fields per range (default {d.seeds})")
     s.add_argument("--bump-width", type=o.positive, default=d.bump_width,
                    help=f"bump length along the path, m (default {d.bump_width:g})")
-    s.add_argument("--time", type=o.seconds, help="simulated seconds (default: the file's or the run's)")
+    o.time_option(s, of=o.RUN_OR_FILE)
     s.add_argument("--delta", type=o.positive, default=d.delta, help=f"delta of S(θ), eq. 6.2 (default {d.delta:g})")
     s.add_argument("--which", choices=("final", "best"), default="final",
                    help="population study: each run's final population, or its best of each generation")

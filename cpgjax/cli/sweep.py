@@ -72,7 +72,7 @@ def register(subparsers: Any) -> None:
         description="Run every combination of the listed settings for every seed, batched into one jitted "
                     "program (one simulator call per generation for all runs); one HDF5 per run under "
                     "OUT/<cell>/s<seed>.h5; resumable (complete runs are skipped, partial ones continued).")
-    p.add_argument("model", metavar="MODEL.wl", help="robot model (.wl) or analytic:sphere:G (test/demo)")
+    o.model_argument(p, help="robot description (.wl) or analytic:sphere:G (test/demo)")
     p.add_argument("--out", required=True, help="sweep directory (runs/NAME/)")
     p.add_argument("--preset", choices=("full", "tiny"), default=None,
                    help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.experiments.sweep.SCALES); "
@@ -102,15 +102,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--seeds", type=_seeds,
                    help=f"{DEFAULT_SEEDS} (= seeds 0..{DEFAULT_SEEDS - 1}, the default), a comma list 3,7,9 "
                         "or a range 10:15")
-    p.add_argument("--time", type=o.seconds, default=None, help="episode length in s (default: the model's TimeMax)")
-    p.add_argument("--terrain", type=o.terrain, default=None, help=f"{o.TERRAIN_HELP} (default: the model's)")
-    p.add_argument("--delta", type=o.positive, default=None,
-                   help=f"δ of the fitness, eq. 4.5 (default {DEFAULT_DELTA:g})")
-    p.add_argument("--evaluation", choices=("thesis", "robust"), default=None,
-                   help="thesis: one exact episode per controller (default); robust: R perturbed episodes "
-                        "(see cpgjax evolve --help)")
-    p.add_argument("--perturb", type=o.perturbations, default=None, metavar="KEY=VALUE,...",
-                   help="robust evaluation ranges (see cpgjax evolve --help)")
+    o.time_option(p)
+    o.terrain_option(p)
+    o.delta_option(p, of=f"{DEFAULT_DELTA:g}")
+    o.evaluation_options(p)
     o.pipeline_option(p, "the model file's Pipeline, else springs; every run of a sweep folder has one")
     o.controller_option(p)
     p.add_argument("--chunk", type=o.count, default=d.chunk, help=f"generations per jitted chunk (default {d.chunk})")
@@ -123,12 +118,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--workers", type=o.count, default=None,
                    help="--ray: number of shards (tasks), each with CPUs/N cores (default: one per node, "
                         "sized by its CPUs)")
-    p.add_argument("--overwrite", action="store_true", help="start every run anew")
-    p.add_argument("--allow-other-machine", action="store_true",
-                   help="continue runs computed on another CPU or with other versions (refused otherwise: the "
-                        "numbers would mix; each file records the switch, docs/reproducibility.md)")
+    o.run_file_options(p, resume=False)
     p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    o.quiet_option(p)
     p.set_defaults(func=cmd_sweep)
 
     p = subparsers.add_parser("report", help="summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)")
@@ -142,15 +134,21 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "notebook", help="execute a notebook end to end (e.g. the thesis figures at a chosen scale)",
         description="Run every cell of a notebook with this interpreter as its kernel and save it with its "
-                    "outputs.  notebooks/thesis_figures.ipynb runs the sweep if its results are missing, then "
-                    "draws Fig. 6.5-6.12 and the claims table.")
+                    "outputs under runs/notebooks/ (the notebook in notebooks/ is left as it is unless --out names "
+                    "it).  notebooks/thesis_figures.ipynb runs the sweep if its results are missing, then draws Fig. "
+                    "6.5-6.12 and the claims table; each notebook's first cell says what its scales run.")
     p.add_argument("notebook", metavar="NOTEBOOK.ipynb")
-    p.add_argument("--scale", choices=("tiny", "full"), default=None, help="sets CPGJAX_SCALE for the notebook")
+    p.add_argument("--scale", choices=("tiny", "full"), default=None,
+                   help="sets CPGJAX_SCALE for the notebook: tiny, seconds to a minute, every cell run on a toy "
+                        "problem (what the tests run; its results mean nothing); full, the experiment as the "
+                        "results pages report it (minutes to an hour; figures into docs/figures/). Default: the "
+                        "notebook's own (tiny)")
     p.add_argument("--sweep-dir", default=None, help="sets CPGJAX_SWEEP_DIR (default: the notebook's choice)")
     p.add_argument("--fig-dir", default=None, help="sets CPGJAX_FIG_DIR (default: the notebook's choice)")
     p.add_argument("--pipeline", choices=PIPELINES, default=None,
                    help=f"sets CPGJAX_PIPELINE: {o.PIPELINE_HELP} (default: the notebook's, the models' own)")
-    p.add_argument("--out", default=None, help="save the executed notebook here (default: in place)")
+    p.add_argument("--out", default=None, metavar="OUT.ipynb",
+                   help="save the executed notebook here (default: runs/notebooks/NAME-SCALE.ipynb)")
     p.add_argument("--no-save", action="store_true", help="do not save the executed notebook")
     p.set_defaults(func=cmd_notebook)
 
@@ -271,13 +269,20 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def default_notebook_out(notebook: str, scale: str | None) -> str:
+    """Where an executed notebook is saved when ``--out`` is not given: ``runs/notebooks/NAME-SCALE.ipynb``, never
+    over the notebook itself (the committed notebooks keep their outputs as they were made)."""
+    stem = os.path.splitext(os.path.basename(notebook))[0]
+    return os.path.join("runs", "notebooks", f"{stem}-{scale or 'default'}.ipynb")
+
+
 def cmd_notebook(args: argparse.Namespace) -> int:
     from cpgjax.errors import CpgjaxError
     from cpgjax.experiments.notebook import execute
 
     env = {k: v for k, v in (("CPGJAX_SCALE", args.scale), ("CPGJAX_SWEEP_DIR", args.sweep_dir),
                              ("CPGJAX_FIG_DIR", args.fig_dir), ("CPGJAX_PIPELINE", args.pipeline)) if v}
-    out = None if args.no_save else (args.out or args.notebook)
+    out = None if args.no_save else (args.out or default_notebook_out(args.notebook, args.scale))
     if not os.path.isfile(args.notebook):
         raise FileNotFoundError(2, "no such notebook", args.notebook)
     o.check_output_file(out)

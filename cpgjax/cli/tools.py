@@ -16,11 +16,10 @@ def register(subparsers: Any) -> None:
     model = o.default_model()
     batches = o.list_of(o.count, "expected batch sizes >= 1, e.g. 1,20,256")
     b = subparsers.add_parser("bench", help="robot-steps/s and simulated robot-s per wall s at several batch sizes")
-    b.add_argument("--model", default=model, help="robot description (default: the quadruped)")
+    o.model_argument(b, optional=True)
     b.add_argument("--batches", type=batches, default=list(DEFAULT_BATCHES),
                    help=f"comma-separated batch sizes (default {','.join(map(str, DEFAULT_BATCHES))})")
-    b.add_argument("--time", type=o.seconds, default=None,
-                   help="simulated seconds per episode (default 2; --table-a1: each example's time in the thesis)")
+    o.time_option(b, of="2 s; --table-a1: each example's time in the thesis; the model file's TimeMax is not used")
     b.add_argument("--chunk", type=o.count, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
     b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
@@ -43,20 +42,20 @@ def register(subparsers: Any) -> None:
     b.set_defaults(func=cmd_bench)
 
     d = subparsers.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
-    d.add_argument("--model", default=model, help="robot description (default: the quadruped)")
+    o.model_argument(d, optional=True)
     d.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
                    help="the walking controller (default: the hand-written trot)")
     d.add_argument("--dts", type=o.list_of(o.step, "expected time steps in (0, 0.05] s"),
                    default=[1e-4, 2e-4, 3e-4, 5e-4, 7e-4, 1e-3, 1.5e-3],
                    help="comma-separated time steps (default 1e-4,2e-4,3e-4,5e-4,7e-4,1e-3,1.5e-3)")
-    d.add_argument("--time", type=o.seconds, default=10.0, help="simulated seconds per episode (default 10)")
+    o.time_option(d, 10.0)
     d.add_argument("--out", help="write the table as markdown here too")
     o.pipeline_option(d)
     d.set_defaults(func=cmd_study_dt)
 
     f = subparsers.add_parser("study-friction", help="the friction bristle: steadiness of the score vs agreement "
                                                      "with MuJoCo C (docs/simulator.md)")
-    f.add_argument("--model", default=model, help="robot description (default: the quadruped)")
+    o.model_argument(f, optional=True)
     f.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
                    help="the controller to jitter (default: the hand-written trot)")
     f.add_argument("--springs", type=_springs, default=[(1e3, 300.0), (1e4, 1e3), (1e5, 300.0), (1e5, 1e3)],
@@ -69,7 +68,7 @@ def register(subparsers: Any) -> None:
     f.add_argument("--random", type=int, default=8, help="random controllers in the Spearman set (default 8)")
     f.add_argument("--perturbed", type=int, default=16,
                    help="--ctl with N(0, 0.1) added, in the Spearman set (default 16)")
-    f.add_argument("--time", type=o.seconds, default=10.0, help="simulated seconds per episode (default 10)")
+    o.time_option(f, 10.0)
     f.add_argument("--out", help="write the table as markdown here too")
     f.add_argument("--json", action="store_true", help="print one JSON object (the rows) instead of the table")
     o.pipeline_option(f, "the model file's Pipeline, else springs; our simulator's side only")

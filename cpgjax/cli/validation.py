@@ -21,8 +21,7 @@ def register(subparsers: Any) -> None:
                     "the robot) follows sinusoids of every frequency x amplitude in one batch, in the penalty "
                     "simulator and in MuJoCo C; the relative mean absolute error vs frequency is fitted with the "
                     "thesis's sigmoid 1/(1+exp(-a(f-b))) and the cut-off is its steepest point b (thesis: 0.74 Hz).")
-    p.add_argument("model", nargs="?", default=o.default_model(), metavar="MODEL.wl",
-                   help="robot description (default: the quadruped)")
+    o.model_argument(p, optional=True)
     p.add_argument("--joint", default=d.joint, help=f"the controlled joint to drive (default {d.joint})")
     p.add_argument("--freqs", type=freq, default=list(d.freqs),
                    help=f"drive frequencies, Hz (default {','.join(f'{f:g}' for f in d.freqs)})")

@@ -58,6 +58,13 @@ class Replay:
     pipeline: str = "springs"  # our side's physics pipeline (the run's, unless `replay_runs(pipeline=)`)
 
     @property
+    def label(self) -> str:
+        """How the tables name the run: ``CELL/sSEED`` for a run of a sweep folder (``CELL/sSEED.h5``), else its
+        file's name without ``.h5`` (``runs/quickstart.h5``: ``quickstart``)."""
+        stem = os.path.splitext(os.path.basename(self.run))[0]
+        return f"{self.cell}/{stem}" if stem == f"s{self.seed}" else stem
+
+    @property
     def group(self) -> str:
         """The summary row of its evaluation mode: the mode, with the pipeline named when not the thesis's."""
         return self.evaluation if self.pipeline == "springs" else f"{self.evaluation}, {self.pipeline} pipeline"
@@ -221,7 +228,7 @@ def table(replays: list[Replay], replay_count: int, here: str | None = None, by:
     for r in replays:
         fell = lambda d: " (fell)" if d["fallen"] else ""  # noqa: E731
         lines.append(
-            f"| {r.cell}/s{r.seed} | {r.evaluation} ({r.pipeline}) | {r.ours['fitness']:.3f}{fell(r.ours)} | "
+            f"| {r.label} | {r.evaluation} ({r.pipeline}) | {r.ours['fitness']:.3f}{fell(r.ours)} | "
             f"{r.ours['speed']:.3f} | "
             f"{r.mujoco['fitness']:.3f}{fell(r.mujoco)} | {r.mujoco['speed']:.3f} | {r.ratio:.2f} | "
             f"{r.ours_jit['mean']:.3f} ± {r.ours_jit['sd']:.3f} ({r.ours_jit['falls']}) | "

@@ -31,7 +31,7 @@ def lanes(model, n: int) -> int:
     """The width of a batch of ``n`` robots on one device: ``n`` padded to whole SIMD vectors (:data:`LANES`),
     and on exact joints to a power of two of them.
 
-    Why the power of two: the exact pipeline's step (`sim.articulated`) gave a robot the same bits in batches
+    Why the power of two: the exact pipeline's step (`sim.exact`) gave a robot the same bits in batches
     of 16, 32, 64, 128, 256 and 512 robots but not of 48, 80, 96 or 192 (44-102 of the first robots
     differed in their last bits: XLA's CPU code splits such widths into vector loops differently); the
     thesis's pipeline is the same at every multiple of 16 (tests/episode/test_rollout.py).  The price: up to

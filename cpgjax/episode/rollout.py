@@ -22,9 +22,9 @@ from cpgjax.episode.fitness import stability
 from cpgjax.episode.support import projection_stability
 from cpgjax.sim.contact import terrain_under
 from cpgjax.sim.joints import joint_angles
+from cpgjax.sim.pipeline import step
 from cpgjax.sim.rotation import quat_to_mat
-from cpgjax.sim.state import State, initial_state, sim_time, varied_initial_state
-from cpgjax.sim.step import point_kinematics, step
+from cpgjax.sim.state import State, initial_state, point_kinematics, sim_time, varied_initial_state
 
 LIMIT_POS = 1.0e3  # m
 LIMIT_VEL = 1.0e3  # m/s, rad/s

@@ -95,8 +95,8 @@ def vestibular(model, s):
 
 def angles(model, s):
     """[n_ctrl, B] the controlled joints' angles (rad)."""
-    if model.pipeline == "exact":
-        return s.gq[model.ctrl_joint]
+    if s.exact is not None:
+        return s.exact.angle[model.ctrl_joint]
     R = quat_to_mat(s.q)
     return joint_angles(model, R, s.w)[0][model.ctrl_joint]
 

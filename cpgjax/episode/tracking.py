@@ -25,9 +25,9 @@ import numpy as np
 from cpgjax.errors import CpgjaxError
 from cpgjax.sim.description import Description
 from cpgjax.sim.joints import joint_angles
+from cpgjax.sim.pipeline import step
 from cpgjax.sim.rotation import mat_to_euler, quat_to_mat, quat_to_mat_np
 from cpgjax.sim.state import initial_state, sim_time
-from cpgjax.sim.step import step
 
 
 class RigError(CpgjaxError, ValueError):

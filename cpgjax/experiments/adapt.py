@@ -4,7 +4,7 @@
 (:mod:`cpgjax.episode.damage`): each trial is one episode of one elite on the damaged robot, of the
 repertoire's length, terrain and pipeline; the search sees only the trial's fitness.
 
-:func:`study` is the measurement of docs/repertoire.md, for damages x repertoires (one per seed):
+:func:`study` is the measurement of docs/results/repertoire.md, for damages x repertoires (one per seed):
 
 - the **best reachable damaged performance** ``R``: every elite of the repertoire scored on the damaged
   robot (one batched simulation; a robot's result does not depend on its batch, so each equals the trial
@@ -26,7 +26,7 @@ together, each dimension standardised over the elites and the two groups weighte
 fitted the same way.  Beyond Cully et al., whose GP lives in the descriptor space with a fixed ``rho``: on five
 full-scale exact-joint quadruped repertoires the damaged fitness of near neighbours correlates about twice as much
 in the genome space as in the duty descriptor's, and ``"both"`` brings the lost hind leg and every other damage
-measured within a median of 20 trials (docs/repertoire.md, damage recovery at full scale).
+measured within a median of 20 trials (docs/results/repertoire.md, damage recovery at full scale).
 
 Each row also keeps ``scores``, every elite's damaged fitness (in the order of ``Repertoire.cells``; None where
 the episode diverged), so that other IT&E settings can be measured on the same case without simulating again
@@ -149,10 +149,12 @@ def adapt(model: str, repertoire: str, damage: str, cfg: ITEConfig = ADAPT_DEFAU
 
     x, cfg = search_space(rep, idx, space, cfg, fit=fit)
     r = ite(x, rep.fitness[idx], trial, cfg)
-    trials = [{"cell": int(idx[t["index"]]), "predicted": t["predicted"], "fitness": t["fitness"]}
-              for t in r["trials"]]
+    trials = [{"cell": int(idx[t["index"]]), "descriptor": [float(v) for v in rep.descriptors[idx[t["index"]]]],
+               "predicted": t["predicted"], "fitness": t["fitness"]} for t in r["trials"]]
     return {"damage": problem.meta["damage"], "repertoire": rep.path, "trials": trials,
             "best_cell": int(idx[r["best_index"]]), "best_fitness": r["best_fitness"],
+            "descriptor_names": list(rep.grid.names),
+            "best_descriptor": [float(v) for v in rep.descriptors[idx[r["best_index"]]]],
             "prior_best": float(rep.fitness[idx].max()), "stop": r["stop"], "space": space,
             "config": dataclasses.asdict(cfg)}
 
@@ -176,7 +178,7 @@ def first_reaching(best_so_far: np.ndarray, level: float) -> int | None:
 def study(model: str, repertoires: list[str], damages: list[str], *, level: float = 0.7,
           trials: int = 50, ga_generations: int = 0, ga_population: int = 20, progress: bool = False,
           cfg: ITEConfig = ADAPT_DEFAULTS, space: str = "descriptor", fit: bool = True) -> dict:
-    """The table of docs/repertoire.md: per damage and repertoire, ``R``, IT&E's trials and the GA's
+    """The table of docs/results/repertoire.md: per damage and repertoire, ``R``, IT&E's trials and the GA's
     evaluations to reach ``level x R`` (see the module docstring).  IT&E runs with ``cfg`` (its GP and
     search) over ``space`` (:func:`search_space`): at most ``trials`` trials with the stopping rule off, at most
     ``cfg.trials`` with it on."""

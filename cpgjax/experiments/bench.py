@@ -5,11 +5,13 @@ robot-seconds per wall second, with the compile time apart: the ahead-of-time ``
 of the program, timed alone (not "first call minus a steady call", which is no compile time and
 came out negative for MJX under load); the run is the best of the calls of that compiled program.
 ``--tricks`` also measures what each speed trick buys, side by side in one run: all
-host devices vs one, the polynomial atan2 vs the library one, and the chunk size.
+host devices vs one, the polynomial atan2 vs the library one, the chunk size, and on exact joints
+the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import platform
 import time
@@ -115,8 +117,8 @@ def step_cost(model, batch: int = 256) -> dict:
     import jax
     import jax.numpy as jnp
 
+    from cpgjax.sim.pipeline import step
     from cpgjax.sim.state import initial_state
-    from cpgjax.sim.step import step
 
     s = initial_state(model, batch)
     ctrl = (jnp.zeros((model.n_ctrl, batch)), jnp.zeros((model.n_ctrl, batch)))
@@ -186,14 +188,9 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
                              label="library atan2" if default else "polynomial atan2"))
         finally:
             rotation.POLY_ATAN2 = default
-        if model.pipeline == "exact":
-            from cpgjax.sim import articulated
-
-            articulated.MATERIALIZE = False
-            try:
-                trows.append(row(model, b, time_s, chunk=chunk, label="no materialized intermediates"))
-            finally:
-                articulated.MATERIALIZE = True
+        if model.exact is not None:         # the exact pipeline's stages computed once into memory, or not
+            plain = model.replace(exact=dataclasses.replace(model.exact, materialize=False))
+            trows.append(row(plain, b, time_s, chunk=chunk, label="no materialized stages"))
         for c in (32, 64, 128, 512):
             trows.append(row(model, b, time_s, label=f"chunk {c}", chunk=c))
         print()

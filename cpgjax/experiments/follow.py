@@ -48,9 +48,9 @@ from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.errors import ResultsError
 from cpgjax.experiments.repertoire import read_repertoire
 from cpgjax.io.wl import load_model
+from cpgjax.sim.pipeline import step
 from cpgjax.sim.rotation import quat_to_mat
 from cpgjax.sim.state import initial_state, sim_time
-from cpgjax.sim.step import step
 
 PATHS = ("line", "square", "circle", "figure8", "points")
 LOOKAHEAD = 64          # candidate gaits simulated ahead every cycle (0: the nearest-turn rule)
@@ -190,7 +190,7 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
     candidates' least heading speed, a share of the fastest elite's): 0.2 with the look-ahead, else 0.5.
     ``replay``: the walk is not the chosen candidate's simulation but the chosen gait run again from the same
     state alone (a batch of one robot: other instructions, so other last bits, and a chaotic gait diverges
-    from its prediction: a look-ahead whose model is not exact; docs/repertoire.md measures what it changes).
+    from its prediction: a look-ahead whose model is not exact; docs/results/repertoire.md measures what it changes).
     ``copies`` M > 1: each candidate is simulated as M copies, copies 1..M-1 with every body's velocity and
     angular velocity jittered by N(0, ``jitter``) (m/s, rad/s), and judged by its worst copy's tilt."""
     rep = read_repertoire(repertoire)

@@ -63,5 +63,8 @@ def execute(path: str | os.PathLike[str], *, env: Mapping[str, str] | None = Non
                 else:
                     os.environ[k] = v
     if out is not None:
+        folder = os.path.dirname(os.fspath(out))
+        if folder:
+            os.makedirs(folder, exist_ok=True)
         nbformat.write(nb, os.fspath(out))
     return nb

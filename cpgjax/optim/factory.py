@@ -19,7 +19,7 @@ from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.episode.perturb import Perturbations, draw, noise_key, roughened
-from cpgjax.episode.policy import Family, from_genomes, parse_controller
+from cpgjax.episode.policy import Family, from_control, from_genomes, from_table, parse_controller, to_genome
 from cpgjax.episode.policy import base_genome as policy_base
 from cpgjax.io.wl import load_model
 from cpgjax.optim.analytic import analytic_problem
@@ -31,7 +31,7 @@ EVALUATIONS = ("thesis", "robust")
 def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float | None = None, replicas: int | None = None, chunk: int | None = None,
                  evaluation: str | None = None, perturb: dict | None = None, pipeline: str | None = None,
-                 controller: str | None = None) -> Problem:
+                 start: str | None = None, controller: str | None = None) -> Problem:
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
 
     ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
@@ -41,6 +41,8 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
     ranges ``perturb`` overrides, e.g. ``{"replicas": 8}``).  ``pipeline``: the physics pipeline
     (``"springs"`` or ``"exact"``, :data:`cpgjax.sim.model.PIPELINES`; None: the model file's ``Pipeline``, else
     springs); the one the model runs on is recorded in the meta (``pipeline``), so that a resume cannot change it.
+    ``start``: a `.ctl` controller the search starts from instead of the thesis's sinusoids (the problem's base
+    genome; the GA moves each of its genes by its initial spread); recorded in the meta (``start``).
     ``controller``: the controller family (:func:`cpgjax.episode.policy.parse_controller`: ``cpg``, the thesis's
     open-loop CPG, the default; ``pmtg``: the CPG modulated by a feedback policy), recorded in the meta
     (``controller``) when not the CPG.
@@ -67,10 +69,40 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
     if robust is not None and model.startswith("analytic:"):
         raise ValueError(f"{model}: the robust evaluation needs a simulated model (.wl)")
     cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas, "evaluation": evaluation,
-           "perturb": perturb or None, "pipeline": pipeline}
+           "perturb": perturb or None, "pipeline": pipeline, "start": start}
     if controller is not None:
         cli["controller"] = controller
-    return dataclasses.replace(problem, meta={**problem.meta, "cli_problem_args": json.dumps(cli)})
+    meta = {**problem.meta, "cli_problem_args": json.dumps(cli)}
+    if start is not None:
+        base = start_genome(start, problem)
+        meta["start"] = json.dumps({"path": str(start), "genome": [float(v) for v in base]})
+        problem = dataclasses.replace(problem, base_genome=base)
+    return dataclasses.replace(problem, meta=meta)
+
+
+def start_genome(path: str, problem: Problem) -> np.ndarray:
+    """The genome of the `.ctl` controller at ``path`` for ``problem`` (its DOFs and harmonics; clipped to the
+    search box, which a hand-written controller may leave)."""
+    from cpgjax.io.ctl import read_ctl
+
+    n_dof, harmonics = problem.meta.get("n_dof"), problem.meta.get("harmonics")
+    if n_dof is None or harmonics is None:
+        raise ValueError(f"--start {path}: a starting controller needs a simulated model (.wl)")
+    c = read_ctl(path, n_dof=int(n_dof), harmonics=int(harmonics))
+    g = np.asarray(c.coeffs, np.float32).reshape(-1)
+    if problem.n_genes > g.size:        # a closed-loop problem: the controller's policy, else a policy of zeros
+        model = load_model(problem.meta["model_path"], pipeline=problem.meta.get("pipeline"))
+        family = parse_controller(problem.meta.get("controller"))
+        if c.policy is not None:
+            g = to_genome(from_control(c, model), model)
+            if g.size != problem.n_genes or from_table(c.policy, model, c.path) != family:
+                raise ValueError(f"--start {path}: its policy ({c.policy.name}) is not this run's "
+                                 f"--controller {family.spec}")
+        else:
+            g = np.concatenate([g, np.zeros(problem.n_genes - g.size, np.float32)])
+    elif c.policy is not None:
+        raise ValueError(f"--start {path}: a closed-loop controller; add --controller {c.policy.name}")
+    return np.clip(g, problem.lower, problem.upper)
 
 
 def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,

@@ -21,7 +21,7 @@ spans [0, 1]) models the damaged robot's fitness, with the repertoire's fitness 
   ``stop_z = 0`` is Cully's rule (the best posterior mean), which stops too early on our repertoires: the
   prior mean is the intact robot's fitness, one or two disappointing trials pull the mean of every elite
   near them down, and the elites of a small repertoire all lie near each other (measured on 20 damage x
-  repertoire cases, docs/repertoire.md: it stopped after a median 2 trials at a median 0.50 of the best
+  repertoire cases, docs/results/repertoire.md: it stopped after a median 2 trials at a median 0.50 of the best
   reachable; with ``stop_z = 2`` after 9.5 at 0.85).
 
 ``offset`` (off by default): the prior mean is ``P(x) + c`` with ``c`` one unknown constant under a flat prior,
@@ -30,7 +30,7 @@ Cully's prior must explain a damage that lowers *every* gait as a residual ``y -
 over the tried elites' neighbours (the kernel's length scale), so after a few disappointing trials the elites
 far from them keep their intact fitness as prediction and the search goes to them, whatever their intact
 fitness; with the offset the common drop is learnt as one shift and the intact ranking (plus the local
-residuals) leads.  Measured in docs/repertoire.md (damage recovery at full scale): it brings the lost legs of
+residuals) leads.  Measured in docs/results/repertoire.md (damage recovery at full scale): it brings the lost legs of
 the springs full-scale repertoire to 0.7 of the best reachable in 6 and 20 trials (Cully's prior: not in 50),
 not the lost hind leg of five exact-joint repertoires, and its stopping rule stops lower.
 

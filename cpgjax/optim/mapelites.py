@@ -47,6 +47,28 @@ from cpgjax.optim.problem import Problem
 METHODS = ("map-elites", "iso-line")
 # default bounds of each descriptor dimension (duty factors: [0, 1]; speed m/s; turning rate rad/s)
 DEFAULT_BOUNDS = {"duty": (0.0, 1.0), "heading_speed": (-0.1, 0.3), "turn": (-0.5, 0.5)}
+# what a descriptor dimension measures, and in what unit (figures' axes, the cells a command prints)
+UNITS = {"duty": "share of the time the foot is down", "heading_speed": "m/s", "turn": "rad/s"}
+
+
+def unit(name: str) -> str:
+    """The unit of descriptor dimension ``name`` (``duty_AR``: a duty factor)."""
+    return UNITS["duty" if name.startswith("duty_") else name] if (name.startswith("duty_") or name in UNITS) else ""
+
+
+def axis_label(name: str) -> str:
+    """``turn [rad/s]``: a descriptor dimension with its unit, for a figure's axis."""
+    u = unit(name)
+    return f"{name} [{u}]" if u else name
+
+
+def describe(names, values) -> str:
+    """``heading_speed +0.212 m/s, turn -0.048 rad/s`` (duty factors without a unit: ``duty_AR 0.50``)."""
+    parts = []
+    for n, v in zip(names, np.asarray(values, float), strict=True):
+        u = unit(n)
+        parts.append(f"{n} {v:.2f}" if n.startswith("duty_") else f"{n} {v:+.3f}" + (f" {u}" if u else ""))
+    return ", ".join(parts)
 
 
 @dataclass(frozen=True)

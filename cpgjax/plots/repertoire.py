@@ -16,6 +16,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from cpgjax.optim.mapelites import axis_label
+
 
 def projection(rep, a: int, b: int) -> np.ndarray:
     """[bins_a, bins_b]: the best elite's fitness over the other dimensions (NaN: no elite)."""
@@ -34,8 +36,8 @@ def heatmap(rep, ax, a: int = 0, b: int = 1, *, colorbar: bool = True):
     m = projection(rep, a, b)
     im = ax.imshow(m.T, origin="lower", aspect="auto", cmap="viridis",
                    extent=(g.lower[a], g.upper[a], g.lower[b], g.upper[b]))
-    ax.set_xlabel(g.names[a])
-    ax.set_ylabel(g.names[b])
+    ax.set_xlabel(axis_label(g.names[a]))
+    ax.set_ylabel(axis_label(g.names[b]))
     if colorbar:
         ax.figure.colorbar(im, ax=ax, label="fitness (best elite)")
     return im
@@ -44,12 +46,18 @@ def heatmap(rep, ax, a: int = 0, b: int = 1, *, colorbar: bool = True):
 def growth(rep, ax) -> None:
     """Filled cells and QD-score against the evaluations (two y axes)."""
     ev = np.asarray(rep.evaluations)
-    ax.plot(ev, 100.0 * np.asarray(rep.n_filled) / rep.grid.n_cells, color="C0")
-    ax.set_xlabel("evaluations")
-    ax.set_ylabel(f"coverage, % of {rep.grid.n_cells} cells", color="C0")
     ax2 = ax.twinx()
-    ax2.plot(ev, rep.qd_score, color="C1")
-    ax2.set_ylabel("QD-score", color="C1")
+    q, = ax2.plot(ev, rep.qd_score, color="C1", linestyle="--", linewidth=1.5, label="QD-score (right)")
+    ax2.set_ylabel("QD-score (sum of the elites' fitness)", color="C1")
+    c, = ax.plot(ev, 100.0 * np.asarray(rep.n_filled) / rep.grid.n_cells, color="C0", linewidth=2.5,
+                 label="coverage (left)")
+    ax.set_xlabel("evaluations")
+    ax.set_ylabel(f"coverage [% of {rep.grid.n_cells} cells]", color="C0")
+    # the two curves often rise alike: coverage drawn solid and above (the twin axis is drawn over the first
+    # one unless the first is raised), the QD-score dashed beneath, and a legend naming both
+    ax.set_zorder(ax2.get_zorder() + 1)
+    ax.patch.set_visible(False)
+    ax.legend(handles=[c, q], loc="lower right")
 
 
 def figure(rep, out: str | os.PathLike[str] | None = None, title: str | None = None) -> Figure:

@@ -131,12 +131,14 @@ def terrain_under(model, x, y, var=None):
     return s * zg, (nx * inv, ny * inv, nz * inv)
 
 
-def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
+def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None, keep=None):
     """Contact forces [3, nc, B], depths [nc, B], new anchors [3, nc, B] and normal forces [nc, B].
 
     ``a``, ``alpha`` [3, nb, B]: the bodies' accelerations under every force but the contacts;
     ``f_prev`` [nc, B]: each vertex's normal force of the previous step; ``var``: an optional
     per-robot :class:`~cpgjax.sim.variation.Variation` (friction and mass scales, terrain shift).
+    ``keep(tree)``: computes a tree once into memory (:func:`cpgjax.sim.springs.step.step` passes one on uneven
+    terrain, where the contact frame under each vertex is looked up: see there); ``None``: nothing kept.
 
     Normal (implicit damper on the predicted velocity ``v' = v* + dt k_n f``, the spring explicit):
     ``f = A d - B v'``, with the part of ``f`` carried over from the previous step predicted at the
@@ -152,6 +154,8 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
     if len(cb) == 0:                             # a model without contact vertices
         return cp, cp[0], anchor, f_prev
     depth, fr = contact_frame(model, cp, var)
+    if keep is not None and fr.n is not None:
+        depth, fr.n, fr.t1, fr.t2 = keep((depth, fr.n, fr.t1, fr.t2))
     touch = depth > 0
     tf = touch.astype(depth.dtype)
     share = []                                  # touching vertices of the vertex's body (>= 1)
@@ -178,7 +182,7 @@ def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None):
 
 def contact_law(model, depth, fr, cp, anchor, vs, k, carry_n, carry_t=None, var=None):
     """Eq. 3.7's ground and the friction bristle, solved implicitly at each touching vertex: the one contact law
-    of both pipelines (the springs' free bodies, :func:`contact_forces`; exact joints, `sim.articulated`).
+    of both pipelines (the springs' free bodies, :func:`contact_forces`; exact joints, `sim.exact.contact`).
 
     ``depth`` [nc, B] and the terrain frame ``fr`` under the vertices at ``cp`` [3, nc, B]; ``anchor`` [3, nc, B]
     the bristles' anchors; ``vs = (v_n, v_1, v_2)``: each vertex's velocity at the end of the step under every

@@ -156,11 +156,16 @@ class Description:
     harmonics: int = 2  # K of the CPG Fourier series
     frequency: float = 0.5  # f0 [Hz]
     # which physics pipeline runs the model (``Pipeline springs|exact``; None: the command's, else "springs"):
-    # "springs" is the thesis's (every body free, joints as pivot springs, eq. 3.6, `sim.step`);
-    # "exact" is generalized coordinates (a floating base and one angle per revolute joint, `sim.articulated`)
+    # "springs" is the thesis's (every body free, joints as pivot springs, eq. 3.6, `sim.springs`);
+    # "exact" is generalized coordinates (a floating base and one angle per revolute joint, `sim.exact`)
     pipeline: str | None = None
     pipeline_line: int = 0
 
     @property
     def n_controlled(self) -> int:
         return sum(1 for j in self.joints if j.controlled)
+
+    def body_line(self, name: str) -> int:
+        """The line of the Compound or Object that makes body ``name`` (1 if none)."""
+        rec = self.compounds.get(name) or self.objects.get(name)
+        return rec.line if rec is not None else 1

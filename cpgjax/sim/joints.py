@@ -1,12 +1,10 @@
-"""Joints as stiff damped pivot springs (eq. 3.6), joint angles and joint limits.
+"""Joint angles and joint limits, shared by both pipelines.
 
-A revolute joint is two pivot springs a small distance apart along its axis: together
-they hold the pivot and the axis; rotation about the axis stays free.  The spring
-force on the first body's pivot is ``F = alpha (p_b - p_a) + beta (v_b - v_a)`` and
-``-F`` acts on the second (eq. 3.6).  The damper is integrated implicitly, locally per
-spring: ``beta_eff = beta / (1 + dt beta / m_eff)`` with a conservative (mass-split)
-effective mass, which is what lets the step grow past the explicit limit ``dt < 2 m/beta``
-while the static stiffness stays exactly ``alpha``.
+A joint's angle is measured from its two bodies' rotations (b relative to a, about the axis; 0 is the
+design pose of the `.wl` file); beyond ``Limits lo hi`` a stiff penalty torque pushes it back.  On the
+springs pipeline a damper about a joint axis (the limits', the servo's derivative) is integrated
+implicitly and locally: ``c_eff = c / (1 + dt c / I_eff)`` with a conservative effective inertia
+(:func:`implicit_damping`); the exact pipeline puts ``dt c`` into its joint-space inertia instead.
 """
 
 from __future__ import annotations
@@ -14,14 +12,6 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from cpgjax.sim.rotation import atan2, cross, dot, matvec
-
-
-def pivot_spring_forces(model, p, pv):
-    """Force on the first end of every pivot spring [3, ns, B] (its negative acts on the second)."""
-    dpos = p[:, model.sp_b] - p[:, model.sp_a]
-    dvel = pv[:, model.sp_b] - pv[:, model.sp_a]
-    beta_eff = (model.beta / (1.0 + model.dt * model.beta * model.sp_inv_meff))[:, None]
-    return model.alpha * dpos + beta_eff * dvel
 
 
 def joint_angles(model, R, w):
@@ -41,7 +31,7 @@ def implicit_damping(model, c):
     1/I_eff = a.(Ia^-1 + Ib^-1).a in the body frames (the axis is fixed in both), a
     conservative bound: the relative rotation of two free bodies about their CMs.
     """
-    return (c / (1.0 + model.dt * c * model.j_inv_ieff))[:, None]
+    return (c / (1.0 + model.dt * c * model.springs.j_inv_ieff))[:, None]
 
 
 def limit_torques(model, angle, rate, implicit=True):

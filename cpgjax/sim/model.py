@@ -1,28 +1,33 @@
 """The static model: a `.wl` Description turned into fixed-size arrays (thesis Ch. 3.3-3.5).
 
 A :class:`Model` is frozen: shapes, masses, inertias, contact vertices, pivot springs,
-joints, servo gains and the terrain.  It is a plain Python object holding numpy arrays;
-jitted functions close over it, so its arrays become compile-time constants.
+joints, servo gains and the terrain, shared by both physics pipelines, and the part of the pipeline
+it runs on (:class:`~cpgjax.sim.springs.model.SpringsModel` or :class:`~cpgjax.sim.exact.tree.ExactModel`).
+It is a plain Python object holding numpy arrays; jitted functions close over it, so its arrays become
+compile-time constants.  :meth:`Model.replace` makes a new one.
 
-Every rigid body is free (6 DOF).  A body is an Object or a Compound (objects welded
-together: masses and inertias combined about the common centre of mass).  Body
-frames are the description frames (an object's centre, a compound's Position); the
-state holds the centre of mass (CM) position and the frame's orientation, and all
-local points are stored relative to the CM.
+A body is an Object or a Compound (objects welded together: masses and inertias combined
+about the common centre of mass).  Body frames are the description frames (an object's
+centre, a compound's Position); the state holds the centre of mass (CM) position and the
+frame's orientation, and all local points are stored relative to the CM.
 
-Every revolute joint becomes two pivot springs (eq. 3.6) placed at the pivot
-``+- width/2`` along the joint axis: together they hold the pivot and the axis, and
-leave the rotation about the axis free.
+Every revolute joint has a pair of pivot points on each of its two bodies, ``+- width/2``
+along the joint axis: the springs pipeline joins each pair with a pivot spring (eq. 3.6;
+together they hold the pivot and the axis, and leave the rotation about the axis free); the
+exact pipeline takes their middle as the joint's pivot.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from cpgjax.sim.description import Description, DescriptionError, ObjectDef
+from cpgjax.sim.exact.tree import ExactModel, build_exact
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
+from cpgjax.sim.springs.model import SpringsModel, build_springs
 from cpgjax.sim.terrain import Terrain, make_terrain
 
 # Defaults chosen by the time-step study (docs/simulator.md).
@@ -43,9 +48,10 @@ AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.
 REFS = {"X": np.array([0.0, 1.0, 0.0]), "Y": np.array([0.0, 0.0, 1.0]), "Z": np.array([1.0, 0.0, 0.0])}
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class Model:
-    """Frozen arrays of one robot and its world (hashable by identity)."""
+    """Frozen arrays of one robot and its world (hashable by identity): the shared part, and the part of its
+    pipeline (``springs`` or ``exact``, the other None)."""
 
     # bodies [nb]
     body_names: tuple[str, ...]
@@ -59,15 +65,12 @@ class Model:
     # points on bodies (pivot-spring ends and contact vertices) [npt]
     pt_body: np.ndarray  # [npt] int
     pt_local: np.ndarray  # [3, npt] relative to the CM, body frame
-    pt_src: np.ndarray  # [npt] where each point's force comes from in [spring a-ends, b-ends, contacts]
     pt_start: np.ndarray  # [nb + 1] the points of body b are pt_start[b]:pt_start[b+1] (sorted by body)
     # pivot springs [ns]: pairs of point indices
     sp_a: np.ndarray
     sp_b: np.ndarray
-    sp_inv_meff: np.ndarray  # [ns] conservative 1/effective mass (mass-split), for the implicit damper
     # contacts [nc]: point indices
     ct_pt: np.ndarray
-    ct_inv_meff: np.ndarray  # [nc]
     # joints [nj]
     joint_names: tuple[str, ...]
     j_a: np.ndarray  # [nj] body index
@@ -82,7 +85,6 @@ class Model:
     j_kd: np.ndarray
     j_taumax: np.ndarray
     j_q0: np.ndarray  # [nj] initial joint angles
-    j_inv_ieff: np.ndarray  # [nj] a.(Ia^-1 + Ib^-1).a, for the implicit joint dampers
     ctrl_joint: np.ndarray  # [nctrl] joint index of each controlled DOF
     # world
     gravity: float
@@ -104,9 +106,9 @@ class Model:
     description: Description | None = field(default=None, repr=False)
     limit_k: float = LIMIT_STIFFNESS
     limit_c: float = LIMIT_DAMPING
-    pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.step.step` dispatches)
-    tree: object = field(default=None, repr=False)  # the kinematic tree of exact joints (`sim.tree.Tree`)
-    levels: object = field(default=None, repr=False)  # the same by depth (`sim.tree.Levels`)
+    pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.pipeline.step` dispatches)
+    springs: SpringsModel | None = field(default=None, repr=False)  # the springs pipeline's part
+    exact: ExactModel | None = field(default=None, repr=False)  # the exact pipeline's part: its tree
 
     @property
     def nb(self) -> int:
@@ -136,18 +138,21 @@ class Model:
         return self.body_names.index(name)
 
     def replace(self, **changes) -> Model:
-        """A copy with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``, ``pipeline``)."""
-        import dataclasses
-
+        """A new Model with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``, ``pipeline``), its pipeline's
+        part built again for them (``exact.materialize`` carried over)."""
         new = dataclasses.replace(self, **changes)
-        if new.pipeline == "exact" and (new.tree is None or "pipeline" in changes):
-            from cpgjax.sim.tree import build_levels, build_tree
+        if "springs" in changes or "exact" in changes:
+            return new
+        return with_pipeline_part(new, materialize=self.exact.materialize if self.exact is not None else True)
 
-            if new.description is None:
-                raise ValueError("a Model needs its Description to run on exact joints")
-            new.tree = build_tree(new, new.description)
-            new.levels = build_levels(new.tree)
-        return new
+
+def with_pipeline_part(model: Model, materialize: bool = True) -> Model:
+    """``model`` with the part of its pipeline built (the other part None)."""
+    if model.pipeline == "exact":
+        if model.description is None:
+            raise ValueError("a Model needs its Description to run on exact joints")
+        return dataclasses.replace(model, springs=None, exact=build_exact(model, model.description, materialize))
+    return dataclasses.replace(model, springs=build_springs(model), exact=None)
 
 
 # ----------------------------------------------------------------------------- shapes
@@ -191,17 +196,12 @@ def object_contacts(obj: ObjectDef) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- builder
 
-def _body_line(desc: Description, name: str) -> int:
-    rec = desc.compounds.get(name) or desc.objects.get(name)
-    return rec.line if rec is not None else 1
-
-
 def _check_body(path: str, desc: Description, kind: str, name: str, mass: float, inertia: np.ndarray,
                 pts: list[np.ndarray]) -> None:
     """A body's mass and inertia must be finite and positive definite (the parser's ranges ensure it
     for a `.wl` file; this guards Descriptions made in code and combinations of extremes)."""
     what = f"{'Compound' if kind == 'compound' else 'Object'} '{name}'"
-    line = _body_line(desc, name)
+    line = desc.body_line(name)
     if not (np.isfinite(mass) and mass > 0 and np.all(np.isfinite(inertia))
             and all(np.all(np.isfinite(p)) for p in pts)):
         raise DescriptionError(path, line, f"{what}: its mass, inertia or contact vertices are not finite "
@@ -303,7 +303,6 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     mass = np.asarray(masses)
     inertia = np.stack(inertias, -1)
     inv_inertia = np.stack([np.linalg.inv(I) for I in inertias], -1)
-    i_min = np.array([np.linalg.eigvalsh(I).min() for I in inertias])
 
     # -- points: pivot-spring ends first, then contact vertices
     pt_body, pt_local = [], []
@@ -340,37 +339,19 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     pt_body = np.asarray(pt_body, dtype=np.int32)
     pt_local = np.asarray(pt_local, float).reshape(-1, 3).T
 
-    # -- conservative effective masses for the implicit dampers (mass splitting):
-    # 1/m_eff of a point <= n_b (1/m + |r|^2 / I_min), n_b = points sharing the body.
-    share = np.bincount(pt_body, minlength=nb).astype(float)
-    r2 = (pt_local**2).sum(0)
-    inv_m_pt = share[pt_body] * (1.0 / mass[pt_body] + r2 / i_min[pt_body])
-    inv_m_pt = np.where(np.asarray(fixed)[pt_body], 0.0, inv_m_pt)
     sp_a = np.asarray(sp_a, dtype=np.int32)
     sp_b = np.asarray(sp_b, dtype=np.int32)
     ct_pt = np.asarray(ct_pt, dtype=np.int32)
     # Sort points by body, so that summing point forces onto bodies is a sum over static
     # contiguous slices: bitwise the same for any batch size (a dot with an incidence matrix
     # is not: its summation order depends on the batch shape).
-    ns_ = len(sp_a)
-    src_old = np.zeros(len(pt_body), np.int32)
-    src_old[sp_a] = np.arange(ns_)
-    src_old[sp_b] = ns_ + np.arange(ns_)
-    src_old[ct_pt] = 2 * ns_ + np.arange(len(ct_pt))
     perm = np.argsort(pt_body, kind="stable")
     new_of_old = np.empty_like(perm)
     new_of_old[perm] = np.arange(len(perm))
-    pt_body, pt_local, pt_src = pt_body[perm], pt_local[:, perm], src_old[perm]
-    inv_m_pt = inv_m_pt[perm]
+    pt_body, pt_local = pt_body[perm], pt_local[:, perm]
     sp_a, sp_b, ct_pt = new_of_old[sp_a], new_of_old[sp_b], new_of_old[ct_pt]
     pt_start = np.concatenate([[0], np.cumsum(np.bincount(pt_body, minlength=nb))]).astype(np.int32)
 
-    bad = ~np.isfinite(inv_m_pt) | ~np.all(np.isfinite(pt_local), axis=0)
-    if bad.any():
-        name = names[int(pt_body[np.argmax(bad)])]
-        raise DescriptionError(path, _body_line(desc, name), f"body '{name}': a joint pivot or contact vertex is "
-                                                             "too far from its centre of mass for its inertia "
-                                                             "(the effective mass overflows); check its lengths")
     nctrl = desc.n_controlled
     ctrl_joint = np.zeros(nctrl, dtype=np.int32)
     for k, c in enumerate(j_ctrl):
@@ -387,15 +368,11 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     model = Model(
         body_names=tuple(names), mass=mass, inertia=inertia, inv_inertia=inv_inertia,
         fixed=np.asarray(fixed, bool), x0=x0, q0=q0, cm_local=np.stack(cms, -1),
-        pt_body=pt_body, pt_local=pt_local, pt_src=pt_src, pt_start=pt_start, sp_a=sp_a, sp_b=sp_b,
-        sp_inv_meff=inv_m_pt[sp_a] + inv_m_pt[sp_b], ct_pt=ct_pt, ct_inv_meff=inv_m_pt[ct_pt],
+        pt_body=pt_body, pt_local=pt_local, pt_start=pt_start, sp_a=sp_a, sp_b=sp_b, ct_pt=ct_pt,
         joint_names=tuple(j.name for j in jd), j_a=np.asarray(j_a, np.int32), j_b=np.asarray(j_b, np.int32),
         j_axis=np.asarray(j_axis, float).reshape(-1, 3).T, j_ref=np.asarray(j_ref, float).reshape(-1, 3).T,
         j_lo=np.asarray(j_lo, float), j_hi=np.asarray(j_hi, float), j_ctrl=np.asarray(j_ctrl, np.int32),
         j_kp=g[:, 0], j_ki=g[:, 1], j_kd=g[:, 2], j_taumax=g[:, 3], j_q0=np.asarray(j_q0, float),
-        j_inv_ieff=np.array([
-            sum(0.0 if fixed[k] else ax @ inv_inertia[:, :, k] @ ax for k in (a, b))
-            for a, b, ax in zip(j_a, j_b, j_axis, strict=True)]).reshape(-1),
         ctrl_joint=ctrl_joint,
         gravity=float(desc.gravity), ground_A=float(A), ground_B=float(B),
         mu_static=float(desc.friction),
@@ -406,9 +383,4 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
         harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,
     )
-    if pipe == "exact":
-        from cpgjax.sim.tree import build_levels, build_tree
-
-        model.tree = build_tree(model, desc)
-        model.levels = build_levels(model.tree)
-    return model
+    return with_pipeline_part(model)

@@ -31,7 +31,7 @@ def servo_gains(model, gain=None, implicit=True, torque=None):
     else:
         kp, ki = kp * gain, ki * gain
         c = model.j_kd[cj][:, None] * gain
-        kd = c / (1.0 + model.dt * c * model.j_inv_ieff[cj][:, None])
+        kd = c / (1.0 + model.dt * c * model.springs.j_inv_ieff[cj][:, None])
     if torque is not None:
         tmax = tmax * torque
     return kp, ki, kd, tmax
@@ -39,7 +39,7 @@ def servo_gains(model, gain=None, implicit=True, torque=None):
 
 def servo_pi(model, angle, target, e_int, gain=None):
     """The proportional and integral part of the servo torque [nctrl, B] and the error [nctrl, B]."""
-    kp, ki, _, _ = servo_gains(model, gain)
+    kp, ki, _, _ = servo_gains(model, gain, implicit=False)      # kp, ki: the same either way
     err = target - angle[model.ctrl_joint]
     return kp * err + ki * e_int, err
 
@@ -52,7 +52,7 @@ def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, implicit=Tru
     ``kd' = kd / (1 + dt kd / I_eff)`` (`joints.implicit_damping`), so that in slow motion the
     damper delivers the nominal ``kd``.  (With the rate at the start of the step in place of
     ``q'`` it would deliver ``kd'``, 0.45 kd on the quadruped's knee at 0.5 ms.)
-    ``implicit=False`` (exact joints, `sim.articulated`): the nominal kd on the rate given; the pipeline puts
+    ``implicit=False`` (exact joints, `sim.exact`): the nominal kd on the rate given; the pipeline puts
     ``dt kd`` into its joint-space inertia, so that the damper acts on the end-of-step rate of the whole robot.
     """
     _, _, kd, tmax = servo_gains(model, gain, implicit, torque)

@@ -7,7 +7,19 @@ from typing import NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.rotation import matvec, quat_to_mat_np
+from cpgjax.sim.rotation import cross, matvec, quat_to_mat_np
+
+
+class ExactState(NamedTuple):
+    """The exact pipeline's part of a :class:`State` (`sim.exact`): the joints' generalized coordinates.
+
+    angle, rate: [nj, B] each joint's angle and rate (the `.wl` file's sign: body_b relative to body_a about the
+    axis).  The floating bases are the tree roots' ``x, q, v, w``; the bodies' poses and velocities, which the
+    rest of cpgjax reads, are kept as the forward kinematics of these coordinates.
+    """
+
+    angle: jnp.ndarray
+    rate: jnp.ndarray
 
 
 class State(NamedTuple):
@@ -19,7 +31,8 @@ class State(NamedTuple):
     anchor: [3, nc, B] static-friction anchor of each contact vertex (its position when not in contact);
     f_n: [nc, B] each contact vertex's normal force of the last step (see `contact`);
     n: [] int32 steps taken: the simulated time is ``n * dt`` (:func:`sim_time`), never a running
-    float sum of ``dt`` (which drifts: 6.000610 s after 6 s in float32).
+    float sum of ``dt`` (which drifts: 6.000610 s after 6 s in float32);
+    exact: the exact pipeline's joint coordinates (:class:`ExactState`), None on the springs pipeline.
     """
 
     x: jnp.ndarray
@@ -30,28 +43,15 @@ class State(NamedTuple):
     anchor: jnp.ndarray
     f_n: jnp.ndarray
     n: jnp.ndarray
+    exact: ExactState | None = None
 
 
-class ExactState(NamedTuple):
-    """:class:`State` of the exact-joint pipeline (`sim.articulated`): the same fields, which it keeps as the
-    forward kinematics of its generalized coordinates, plus those coordinates and the contact forces.
-
-    gq, gv: [nj, B] joint angles and rates (the `.wl` file's sign: body_b relative to body_a about the axis);
-    the floating base is the tree root's x, q, v, w.  f_c: [3, nc, B] each contact vertex's force of the last
-    step (world frame), the warm start of the next step's contact solve.
-    """
-
-    x: jnp.ndarray
-    q: jnp.ndarray
-    v: jnp.ndarray
-    w: jnp.ndarray
-    e_int: jnp.ndarray
-    anchor: jnp.ndarray
-    f_n: jnp.ndarray
-    n: jnp.ndarray
-    gq: jnp.ndarray
-    gv: jnp.ndarray
-    f_c: jnp.ndarray
+def point_kinematics(model, state: State, R):
+    """World offset from the CM, position and velocity [3, npt, B] of every point of the bodies (pivot-spring ends,
+    contact vertices); ``R`` [3, 3, nb, B]: the bodies' rotations."""
+    pb = model.pt_body
+    r = matvec(R[:, :, pb], model.pt_local[:, :, None])
+    return r, state.x[:, pb] + r, state.v[:, pb] + cross(state.w[:, pb], r)
 
 
 def sim_time(model, state: State):
@@ -71,16 +71,14 @@ def initial_state(model, batch: int = 1, dtype=jnp.float32) -> State:
     for k, pt in enumerate(model.ct_pt):
         b = model.pt_body[pt]
         anchors[:, k] = x0[:, b] + quat_to_mat_np(model.q0[:, b]) @ model.pt_local[:, pt]
-    s = State(
+    exact = None
+    if model.exact is not None:
+        exact = ExactState(angle=tile(model.j_q0), rate=jnp.zeros((model.nj, batch), dtype))
+    return State(
         x=tile(model.x0), q=tile(model.q0), anchor=tile(anchors), v=jnp.zeros((3, nb, batch), dtype),
         w=jnp.zeros((3, nb, batch), dtype), e_int=jnp.zeros((model.n_ctrl, batch), dtype),
-        f_n=jnp.zeros((len(model.ct_pt), batch), dtype), n=jnp.zeros((), jnp.int32),
+        f_n=jnp.zeros((len(model.ct_pt), batch), dtype), n=jnp.zeros((), jnp.int32), exact=exact,
     )
-    if model.pipeline == "exact":
-        return ExactState(*s, gq=tile(model.j_q0), gv=jnp.zeros((model.nj, batch), dtype),
-                          f_c=jnp.zeros((3, len(model.ct_pt), batch), dtype))
-    return s
-
 
 
 def varied_initial_state(model, var, dtype=jnp.float32) -> State:

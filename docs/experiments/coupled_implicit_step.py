@@ -21,7 +21,7 @@ it).  Not adopted; kept so that the measurement can be rerun:
 
     .venv/bin/python docs/experiments/coupled_implicit_step.py models/quadruped-stiff.wl 2e-3
 
-which runs the hand-written trot for 10 s with this step in place of `cpgjax.sim.step.step`.
+which runs the hand-written trot for 10 s with this step in place of `cpgjax.sim.step`.
 """
 
 
@@ -265,7 +265,8 @@ def _body_sums(x, groups, nb, axis):
 
 
 def step_implicit(model, state, ctrl, var=None):
-    from cpgjax.sim.step import point_kinematics, sum_contacts_onto_bodies, sum_onto_bodies
+    from cpgjax.sim.springs.step import sum_contacts_onto_bodies, sum_onto_bodies
+    from cpgjax.sim.state import point_kinematics
 
     dt = model.dt
     P = plan(model)
@@ -287,7 +288,7 @@ def step_implicit(model, state, ctrl, var=None):
     d = p[:, sb] - p[:, sa]
     fs = model.alpha * d
     no_contact = jnp.zeros((3, len(model.ct_pt), B), dtype)
-    f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.pt_src]
+    f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.springs.pt_src]
     angle, _, axis = joint_angles(model, R, state.w)
     lo, hi = model.j_lo[:, None], model.j_hi[:, None]
     over = jnp.maximum(angle - hi, 0.0)

@@ -4,7 +4,7 @@
 
 For the same controllers (the same `--random/--perturbed/--controllers/--seed`) run on two pipelines or
 settings of our simulator, e.g. exact joints against the springs pipeline with stiff springs
-(docs/exact-joints.md, note 9): one line, the rank correlation and its 95 % bootstrap interval over the
+(docs/results/exact-joints.md, note 3): one line, the rank correlation and its 95 % bootstrap interval over the
 controllers (`crosscheck/engines.py: spearman_interval`).  The tables print 4 decimals, so near-equal scores
 tie (ranked by their mean rank).
 """

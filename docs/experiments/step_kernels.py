@@ -7,9 +7,9 @@ device) and counts the operations of the loop's body that XLA's CPU runtime runs
 copies, loops, conditionals, ...; not the tuples, parameters and bitcasts, which cost nothing), with
 those of a conditional's taken branch (`keep`'s first form: a ``cond`` that always took its second branch)
 and of a zero-trip loop's condition (`keep`'s form now).  A loop that does work (the contact solve's, run once
-or, when some vertex is to be released, twice: `sim/articulated.py: _release`) is counted apart: its body's
+or, when some vertex is to be released, twice: `sim/exact/contact.py: _release`) is counted apart: its body's
 kernels run once per pass.  At 16 robots a step's time is about this count times 100 ns
-(docs/exact-joints.md, note 2).
+(docs/results/performance.md, "The exact pipeline").
 """
 
 import collections
@@ -20,8 +20,7 @@ import jax
 import jax.numpy as jnp
 
 from cpgjax.io.wl import load_model
-from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
+from cpgjax.sim import initial_state, step
 
 FREE = {"parameter", "get-tuple-element", "tuple", "constant", "bitcast"}
 

@@ -4,10 +4,11 @@
 
 A `jax.lax.scan` over STEPS steps of BATCH robots (default the quadruped, 256, 200) holding random servo
 targets, compiled ahead of time; the best of 5 calls, timed as the process's CPU time (which, unlike wall
-time, holds while other jobs share the machine).  Prints one line with `sim.articulated.MATERIALIZE` on, one
-with it off (docs/exact-joints.md, note 6); a fourth argument (``on``) skips the second (half the time).
+time, holds while other jobs share the machine).  Prints one line with the stages materialized (the model's
+``exact.materialize``, `sim.tricks.keep`), one without; a fourth argument (``on``) skips the second.
 """
 
+import dataclasses
 import sys
 import time
 
@@ -16,9 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.io.wl import load_model
-from cpgjax.sim import articulated
-from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
+from cpgjax.sim import initial_state, step
 
 
 def rate(model, batch, steps):
@@ -45,7 +44,7 @@ if __name__ == "__main__":
     steps = int(sys.argv[3]) if len(sys.argv) > 3 else 200
     model = load_model(wl, pipeline="exact")
     for on in (True, False) if len(sys.argv) < 5 else (True,):
-        articulated.MATERIALIZE = on
-        per_step, robot_steps = rate(model, batch, steps)
+        m = model.replace(exact=dataclasses.replace(model.exact, materialize=on))
+        per_step, robot_steps = rate(m, batch, steps)
         print(f"{wl}, {batch} robots, keep {'on ' if on else 'off'}: {1e6 * per_step:8.1f} us per step, "
               f"{robot_steps:12,.0f} robot-steps per CPU second", flush=True)

@@ -1,5 +1,5 @@
 #!/bin/bash
-# Exact joints as the limit of stiff springs (docs/exact-joints.md, "Exact joints as the limit of stiff springs").
+# Exact joints as the limit of stiff springs (docs/results/exact-joints.md, "Exact joints as the limit of stiff springs").
 #
 #   bash docs/experiments/stiff_limit.sh EXACT_RUNS OUT
 #

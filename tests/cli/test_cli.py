@@ -36,11 +36,13 @@ def test_malformed_wl_reports_path_and_line(tmp_path, capsys):
 def test_malformed_ctl_reports_path_and_line(tmp_path, capsys):
     bad = tmp_path / "bad.ctl"
     text = open("models/quadruped-trot.ctl").read().splitlines()
-    text[3] = text[3].replace("0.000000", "zero", 1)
+    data = [i for i, line in enumerate(text) if line.strip() and not line.startswith("#")]
+    i = data[3]                                    # the third coefficient row (after the fitness line)
+    text[i] = text[i].replace("0.000000", "zero", 1)
     bad.write_text("\n".join(text) + "\n")
     rc = main(["simulate", "models/quadruped.wl", "--ctl", str(bad), "--time", "0.1"])
     err = capsys.readouterr().err
-    assert rc == 2 and f"{bad}:4:" in err
+    assert rc == 2 and f"{bad}:{i + 1}:" in err
 
 
 def test_wrong_number_of_dofs_in_ctl(tmp_path, capsys):

@@ -4,6 +4,7 @@ import re
 
 import numpy as np
 import pytest
+from runcases import TINY_TIME
 
 from cpgjax.cli import main
 from cpgjax.io.ctl import read_ctl
@@ -11,17 +12,15 @@ from cpgjax.io.results import read_run
 from cpgjax.optim.factory import wl_problem as make_problem
 
 
-def test_best_controller_replays_with_the_fitness_the_ga_gave_it(tmp_path, capsys):
-    run = tmp_path / "r.h5"
+def test_best_controller_replays_with_the_fitness_the_ga_gave_it(tiny_runs, tmp_path, capsys):
+    run = tiny_runs["thesis"]
     ctl = tmp_path / "best.ctl"
-    assert main(["evolve", "models/quadruped.wl", "--population", "6", "--generations", "2", "--time", "1",
-                 "--out", str(run), "--quiet"]) == 0
-    assert main(["best", str(run), "--ctl", str(ctl)]) == 0
+    assert main(["best", run, "--ctl", str(ctl)]) == 0
     capsys.readouterr()
-    _, _, fit, genome = read_run(str(run)).best()
+    _, _, fit, genome = read_run(run).best()
     c = read_ctl(ctl, n_dof=8, harmonics=2)
     np.testing.assert_array_equal(c.coeffs.astype(np.float32).reshape(-1), np.asarray(genome, np.float32))
-    assert main(["simulate", "models/quadruped.wl", "--ctl", str(ctl), "--time", "1"]) == 0
+    assert main(["simulate", "models/quadruped.wl", "--ctl", str(ctl), "--time", str(TINY_TIME)]) == 0
     out = capsys.readouterr().out
     replay = float(re.search(r"fitness\s+([-+0-9.e]+)", out).group(1))
     assert abs(replay - fit) < 1e-5, (replay, fit)

@@ -9,17 +9,15 @@ import pytest
 from cpgjax import cli
 from cpgjax.crosscheck import transfer
 
+# the robust run's mode as the tables name it: a fall scales its score, its foot stiffened up to 10^3
+ROBUST = f"{transfer.SCALES}, bristle up to 10^3"
+
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    d = tmp_path_factory.mktemp("tr")
-    for ev in ("thesis", "robust"):
-        argv = ["evolve", "models/quadruped.wl", "--time", "0.5", "--population", "4", "--generations", "1",
-                "--evaluation", ev, "--out", str(d / f"{ev}.h5"), "--quiet"]
-        if ev == "robust":
-            argv += ["--perturb", "replicas=2"]
-        assert cli.main(argv) == 0
-    return d
+def runs(tiny_runs):
+    """The folder of the suite's tiny thesis and robust runs (tests/runcases.py)."""
+    tiny_runs["thesis"], tiny_runs["robust"]
+    return tiny_runs.folder
 
 
 def test_transfer_table_json_and_figure(runs, tmp_path, capsys):
@@ -27,13 +25,13 @@ def test_transfer_table_json_and_figure(runs, tmp_path, capsys):
     files = [str(runs / "thesis.h5"), str(runs / "robust.h5")]
     assert cli.main(["transfer", *files, "--replays", "2", "--out", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "| thesis |" in text and "| robust |" in text and "carries over" in text
+    assert "| thesis |" in text and f"| {ROBUST} |" in text and "carries over" in text
     data = json.loads((out / "transfer.json").read_text())
-    assert data["summary"]["runs"] == 2 and set(data["summary"]) >= {"thesis", "robust"}
+    assert data["summary"]["runs"] == 2 and set(data["summary"]) >= {"thesis", ROBUST}
     assert (out / "transfer.png").stat().st_size > 10_000 and (out / "transfer.md").exists()
     assert cli.main(["transfer", *files, "--replays", "2", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    for mode in ("thesis", "robust"):
+    for mode in ("thesis", ROBUST):
         assert summary[mode]["runs"] == 1 and summary[mode]["mujoco_falls_mean"] <= 2
 
 
@@ -116,3 +114,15 @@ def test_a_sweeps_runs_can_be_summarised_per_setting(runs, capsys):
     assert cli.main(["transfer", *files, "--replays", "1", "--by", "cell", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary[runs.name]["runs"] == 2
+
+
+def test_a_run_is_named_by_its_sweep_cell_and_seed_or_else_by_its_file():
+    def replay(path, cell, seed):
+        r = {"fitness": 0.1, "speed": 0.1, "fallen": False}
+        j = {"mean": 0.1, "sd": 0.0, "falls": 0}
+        return transfer.Replay(run=path, evaluation="thesis", cell=cell, seed=seed, fitness_in_run=0.1, ours=r,
+                               mujoco=r, ours_jit=j, mujoco_jit=j)
+
+    assert replay("runs/thesis/g0.01-p4/s3.h5", "g0.01-p4", 3).label == "g0.01-p4/s3"
+    assert replay("runs/quickstart.h5", "runs", 0).label == "quickstart"        # not "runs/s0"
+    assert replay("s7.h5", "", 0).label == "s7"

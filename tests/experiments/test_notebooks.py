@@ -45,9 +45,18 @@ def test_thesis_figures_notebook_run_again_finds_the_sweep_complete_and_only_red
     assert {p: os.path.getmtime(p) for p in (tmp_path / "sweep").rglob("*.h5")} == sweep_files   # not one run rewritten
 
 
-def test_a_failing_notebook_names_the_error(tmp_path, capsys):
+def test_a_notebook_is_saved_under_runs_and_a_failing_one_names_the_error(tmp_path, monkeypatch, capsys):
     nbformat = pytest.importorskip("nbformat")
     pytest.importorskip("ipykernel")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notebooks").mkdir()
+    good = tmp_path / "notebooks" / "good.ipynb"
+    nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("print(6 * 7)")]), str(good))
+    before = good.read_bytes()
+    assert cli.main(["notebook", str(good), "--scale", "tiny"]) == 0
+    assert good.read_bytes() == before                       # the notebook in notebooks/ is left as it was
+    saved = tmp_path / "runs" / "notebooks" / "good-tiny.ipynb"
+    assert "42" in saved.read_text() and str(saved.relative_to(tmp_path)) in capsys.readouterr().out
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("x = 1"),
                                          nbformat.v4.new_code_cell("raise ValueError('no sweep here')")])
     path = tmp_path / "bad.ipynb"

@@ -7,6 +7,7 @@ import shutil
 
 import h5py
 import pytest
+from runcases import TINY_GA, TINY_TIME
 
 from cpgjax.cli import main
 from cpgjax.errors import ResultsError
@@ -15,14 +16,15 @@ from cpgjax.io.results import read_attrs, read_run
 from cpgjax.optim.factory import make_problem
 
 WL = "models/quadruped.wl"
-TINY = ["--time", "0.2", "--population", "4", "--generations", "1", "--quiet"]
+TINY = TINY_GA
 
 
 @pytest.fixture(scope="module")
-def run_path(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pipeline") / "r.h5"
-    assert main(["evolve", WL, *TINY, "--out", str(out)]) == 0
-    return out
+def run_path(tiny_runs):
+    """The suite's tiny thesis run (tests/runcases.py), read only: a test that changes it works on a copy."""
+    from pathlib import Path
+
+    return Path(tiny_runs["thesis"])
 
 
 def _as_exact(src, dst):
@@ -39,7 +41,7 @@ def test_a_run_records_its_pipeline(run_path):
     a = read_attrs(run_path)
     assert a["pipeline"] == "springs" and json.loads(a["meta"])["pipeline"] == "springs"
     assert read_run(run_path).pipeline == "springs"
-    problem = make_problem(WL, time=0.2, pipeline="exact")      # builds the model, traces nothing
+    problem = make_problem(WL, time=TINY_TIME, pipeline="exact")      # builds the model, traces nothing
     assert problem.meta["pipeline"] == "exact" and json.loads(problem.meta["cli_problem_args"])["pipeline"] == "exact"
 
 
@@ -47,7 +49,7 @@ def test_resume_with_another_pipeline_exits_2_in_one_line_and_changes_nothing(ru
     path = tmp_path / "r.h5"
     shutil.copy(run_path, path)
     before = path.read_bytes()
-    assert main(["evolve", WL, *TINY, "--generations", "2", "--out", str(path), "--resume", "--pipeline", "exact"]) == 2
+    assert main(["evolve", WL, *TINY, "--generations", "3", "--out", str(path), "--resume", "--pipeline", "exact"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert f"{path}: cannot resume: --pipeline exact differs from the run's springs (drop the option" in err
@@ -57,7 +59,7 @@ def test_resume_with_another_pipeline_exits_2_in_one_line_and_changes_nothing(ru
 def test_a_sweep_refuses_to_add_runs_of_another_pipeline(run_path):
     with pytest.raises(ResultsError, match="cannot add runs to this sweep: --pipeline exact differs from the run's "
                                            "springs"):
-        check_problem(str(run_path), make_problem(WL, time=0.2, pipeline="exact"), verb="add runs to this sweep")
+        check_problem(str(run_path), make_problem(WL, time=TINY_TIME, pipeline="exact"), verb="add runs to this sweep")
 
 
 def test_runs_made_before_the_pipeline_was_recorded_ran_on_springs(run_path):
@@ -65,9 +67,9 @@ def test_runs_made_before_the_pipeline_was_recorded_ran_on_springs(run_path):
     meta = json.loads(a["meta"])
     del meta["pipeline"]
     a["meta"] = json.dumps(meta)
-    check_problem(str(run_path), make_problem(WL, time=0.2), a)            # no refusal: the same physics
+    check_problem(str(run_path), make_problem(WL, time=TINY_TIME), a)            # no refusal: the same physics
     with pytest.raises(ResultsError, match="--pipeline exact differs from the run's springs"):
-        check_problem(str(run_path), make_problem(WL, time=0.2, pipeline="exact"), a)
+        check_problem(str(run_path), make_problem(WL, time=TINY_TIME, pipeline="exact"), a)
 
 
 def test_a_runs_model_is_rebuilt_on_the_pipeline_it_recorded(run_path, tmp_path, monkeypatch):
@@ -118,7 +120,7 @@ def test_report_and_transfer_name_the_pipeline(run_path):
     def replay(seed, pipeline):
         d = {"fitness": 0.1, "speed": 0.1, "distance": 0.5, "fallen": False}
         j = {"mean": 0.1, "sd": 0.0, "falls": 0, "speed": 0.1}
-        return transfer.Replay(run=f"r{seed}.h5", evaluation="thesis", cell="c", seed=seed, fitness_in_run=0.1,
+        return transfer.Replay(run=f"c/s{seed}.h5", evaluation="thesis", cell="c", seed=seed, fitness_in_run=0.1,
                                ours=d, mujoco=d, ours_jit=j, mujoco_jit=j, pipeline=pipeline)
 
     rs = [replay(0, "springs"), replay(1, "exact")]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from runcases import same_rows
+from runcases import TINY_TIME, same_rows
 
 from cpgjax import cli
 from cpgjax.experiments.evolve import run_ga
@@ -18,9 +18,13 @@ WL = "models/quadruped.wl"
 COPY = GAConfig(population=6, generations=3, pocket=2, mu_max=0.0, seed=4)
 
 
+# the robust evaluation of the suite's tiny runs (tests/runcases.py): their compiled programs are shared
+ROBUST = {"replicas": 2, "fall_survival": True, "bristle": 3.0}
+
+
 @pytest.fixture(scope="module")
 def robust():
-    return make_problem(WL, time=0.3, evaluation="robust", perturb={"replicas": 2})
+    return make_problem(WL, time=TINY_TIME, evaluation="robust", perturb=ROBUST)
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +46,7 @@ def test_pocketed_elites_are_rescored_with_fresh_perturbations(robust_run):
 
 
 def test_the_thesis_evaluation_scores_a_copy_exactly_as_its_parent(tmp_path):
-    thesis = make_problem(WL, time=0.3)
+    thesis = make_problem(WL, time=TINY_TIME)
     run_ga(thesis, COPY, tmp_path / "t.h5")
     run = read_run(tmp_path / "t.h5")
     g, f = run.genomes, run.fitness
@@ -61,7 +65,8 @@ def test_deterministic_given_the_seed_and_resumable_bit_for_bit(robust, robust_r
 @pytest.mark.slow  # 9 s; fast: the same for the thesis evaluation, experiments/test_sweep.py
 def test_a_sweep_run_equals_the_same_run_made_alone(robust, tmp_path):
     out = tmp_path / "sweep"
-    argv = ["sweep", WL, "--time", "0.3", "--evaluation", "robust", "--perturb", "replicas=2", "--population", "6",
+    argv = ["sweep", WL, "--time", str(TINY_TIME), "--evaluation", "robust", "--perturb",
+            "replicas=2,fall_survival=on,bristle=3", "--population", "6",
             "--generations", "2", "--pocket", "2", "--gamma", "0,1", "--seeds", "1", "--out", str(out), "--quiet"]
     assert cli.main(argv) == 0
     alone = tmp_path / "alone.h5"

@@ -11,7 +11,7 @@ import h5py
 import jax
 import numpy as np
 import pytest
-from runcases import same_rows
+from runcases import TINY_TIME, same_rows
 
 from cpgjax import cli
 from cpgjax.experiments import sweep
@@ -22,7 +22,7 @@ from cpgjax.plots import thesis
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 WL = os.path.join(ROOT, "models", "quadruped.wl")
 # the quadruped, short episodes: the simulator's result for a robot does not depend on its batch
-QUAD = ["--time", "0.5", "--population", "6", "--generations", "3"]
+QUAD = ["--time", str(TINY_TIME), "--population", "6", "--generations", "3"]   # the suite's tiny episodes
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,7 @@ def test_layout_and_manifest(quad_sweep):
                              "ga_n6_mu0.2_g0.1_p2_xoff", "ga_n6_mu0.2_g0.1_p2_xon", "random"]
     assert all(len(v) == 2 for v in cells.values())
     man = json.load(open(os.path.join(quad_sweep, sweep.MANIFEST)))
-    assert len(man["runs"]) == 12 and man["problem"]["time"] == 0.5
+    assert len(man["runs"]) == 12 and man["problem"]["time"] == TINY_TIME
     run = read_run(cells["ga_n6_mu0.2_g0.1_p2_xon"][1])
     assert run.kind == "ga" and run.completed == 3 and run.config["crossover"] and run.config["seed"] == 1
     assert run.fitness.shape == (3, 6) and run.genomes.shape == (3, 6, 40)
@@ -70,17 +70,45 @@ def test_sweep_equals_runs_made_one_by_one_with_cpgjax_evolve(quad_sweep, tmp_pa
                 _same_as_evolve(quad_sweep, tmp_path, pocket, xo, seed)
 
 
+def test_baselines_propose_as_cpgjax_search(tmp_path):
+    """Random search and amc in a sweep draw the genomes `cpgjax search` draws and record the fitness it records
+    (on an analytic problem: the driver is the same for every problem; on the quadruped: the slow test below)."""
+    m = "analytic:sphere:10"
+    out = str(tmp_path / "sw")
+    assert cli.main(["sweep", m, "--no-ga", "--baselines", "random,amc3", "--samples", "18", "--population", "6",
+                     "--seeds", "1:2", "--out", out, "--quiet"]) == 0
+    for method, extra, cell in (("random", [], "random"), ("amc", ["--M", "3"], "amc_M3")):
+        single = str(tmp_path / f"{cell}.h5")
+        assert cli.main(["search", m, "--method", method, *extra, "--samples", "18", "--batch", "6", "--seed", "1",
+                         "--out", single, "--quiet"]) == 0
+        same_rows(read_run(os.path.join(out, cell, "s1.h5")), read_run(single))
+
+
+def test_a_baselines_stored_fitness_is_the_simulators(quad_sweep):
+    """Each fitness amc recorded in the quadruped's sweep is exactly the simulator's for the stored genome,
+    re-evaluated here in a batch of its own."""
+    import jax
+    import jax.numpy as jnp
+
+    evaluate = jax.jit(sweep.sweep_problem({"model": WL, "time": TINY_TIME}).evaluate)
+    a = read_run(os.path.join(quad_sweep, "amc_M3", "s1.h5"))
+    for gen in range(a.completed):
+        f = np.asarray(evaluate(jnp.asarray(a.genomes[gen]))["fitness"])
+        np.testing.assert_array_equal(f, a.fitness[gen])
+
+
+@pytest.mark.slow  # two searches on the quadruped, each its own program; fast: the two tests above
 def test_baselines_propose_as_cpgjax_search_and_score_their_genomes(quad_sweep, tmp_path):
     """Random search and amc in a sweep draw the genomes `cpgjax search` draws; each stored fitness is
     exactly the simulator's for the stored genome (re-evaluated here in a batch of its own)."""
     import jax
     import jax.numpy as jnp
 
-    problem = sweep.sweep_problem({"model": WL, "time": 0.5})
+    problem = sweep.sweep_problem({"model": WL, "time": TINY_TIME})
     evaluate = jax.jit(problem.evaluate)
     for method, extra, cell in (("random", [], "random"), ("amc", ["--M", "3"], "amc_M3")):
         single = str(tmp_path / f"{cell}.h5")
-        assert cli.main(["search", WL, "--time", "0.5", "--method", method, *extra, "--samples", "18",
+        assert cli.main(["search", WL, "--time", str(TINY_TIME), "--method", method, *extra, "--samples", "18",
                          "--batch", "6", "--seed", "1", "--out", single, "--quiet"]) == 0
         a, b = read_run(os.path.join(quad_sweep, cell, "s1.h5")), read_run(single)
         np.testing.assert_array_equal(a.genomes[0], b.genomes[0])   # generation 0 does not depend on fitness
@@ -102,9 +130,9 @@ from cpgjax.io.results import read_run
 wl, out = sys.argv[1:3]
 assert len(jax.devices()) == 1, jax.devices()
 specs = sweep.plan(out, sweep.baseline_cells(["random", "amc3"], samples=12, batch=6), [1])
-sweep.run_sweep(sweep.sweep_problem({"model": wl, "time": 0.5}, batch=sweep.total_batch(specs)), specs,
+sweep.run_sweep(sweep.sweep_problem({"model": wl, "time": 0.3}, batch=sweep.total_batch(specs)), specs,
                 progress=False)
-evaluate = jax.jit(sweep.sweep_problem({"model": wl, "time": 0.5}).evaluate)
+evaluate = jax.jit(sweep.sweep_problem({"model": wl, "time": 0.3}).evaluate)
 for s in specs:
     run = read_run(s.path)
     assert run.completed == 2
@@ -140,7 +168,7 @@ def test_resume_after_interruption_equals_uninterrupted(quad_sweep, tmp_path):
     specs = sweep.plan(out, sweep.ga_grid(gamma=(0.1,), pocket=(0, 2), crossover=(False, True), population=(6,),
                                           generations=3)
                        + sweep.baseline_cells(["random", "amc3"], samples=18, batch=6), [0, 1])
-    problem = sweep.sweep_problem({"model": WL, "time": 0.5, "terrain": None, "delta": None})
+    problem = sweep.sweep_problem({"model": WL, "time": TINY_TIME, "terrain": None, "delta": None})
     s = sweep.run_sweep(problem, specs, progress=False, stop_after=1)        # interrupted after 1 generation
     assert s["evaluations"] == sum(sp.cfg.population for sp in specs)
     assert not sweep.complete(specs)

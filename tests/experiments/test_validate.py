@@ -9,27 +9,22 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from runcases import TINY_TIME
 
 from cpgjax import cli
 from cpgjax.experiments import validate as V
-from cpgjax.experiments.evolve import run_ga
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.results import read_run
-from cpgjax.optim.factory import make_problem
-from cpgjax.optim.ga import GAConfig
 
-WL = "models/quadruped.wl"
-CFG = GAConfig(population=6, generations=2, pocket=2, seed=3)
 SMALL = V.Validation(candidates=4, episodes=2)        # one compiled scorer for the whole file
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    d = tmp_path_factory.mktemp("val")
-    run_ga(make_problem(WL, time=0.3, evaluation="robust", perturb={"replicas": 2, "fall_survival": True,
-                                                                     "bristle": 3.0}), CFG, d / "robust.h5")
-    run_ga(make_problem(WL, time=0.3), CFG, d / "thesis.h5")
-    return d
+def runs(tiny_runs):
+    """The folder of the suite's tiny thesis and robust runs (tests/runcases.py: 6 robots, 2 generations, 0.3 s;
+    the robust one with replicas 2, fall_survival on, bristle 3)."""
+    tiny_runs["thesis"], tiny_runs["robust"]
+    return tiny_runs.folder
 
 
 def test_candidates_are_the_runs_best_distinct_genomes_best_first(runs):
@@ -68,7 +63,7 @@ def test_the_champion_is_the_best_mean_over_common_episodes_and_reproducible(run
     assert not np.array_equal(other.scores, ch.scores)                      # another seed, other episodes
     # common random numbers: every candidate meets the same episodes, so one genome in every slot scores the same
     _, genomes, _ = V.candidates(run, SMALL.candidates)
-    score = V._scorer(str(run.meta["model_text"]), str(run.meta["model_path"]), None, 0.3, 8.0,
+    score = V._scorer(str(run.meta["model_text"]), str(run.meta["model_path"]), None, TINY_TIME, 8.0,
                       V.perturbations(run, SMALL.episodes))
     key = jax.random.fold_in(jax.random.key(SMALL.seed), V.VALIDATION_STREAM)
     same = np.repeat(genomes[:1], SMALL.candidates, axis=0)

@@ -142,7 +142,7 @@ def test_a_directory_is_named_with_the_files_in_it(tmp_path, read):
         read(tmp_path)
     msg = str(e.value)
     _one_line(msg)
-    assert msg.startswith(f"{tmp_path}:0: is a directory, not a {ext} file; name one of its {ext} files, e.g. "
+    assert msg.startswith(f"{tmp_path}: is a directory, not a {ext} file; name one of its {ext} files, e.g. "
                           f"{tmp_path / ('robot' + ext)}"), msg
 
 
@@ -153,9 +153,9 @@ def test_a_missing_file_is_still_a_file_not_found_error(tmp_path, read):
     with pytest.raises(FileNotFoundError) as e:
         read(tmp_path / f"quadrupd{ext}")
     assert isinstance(e.value, MissingFileError) and isinstance(e.value, DescriptionError)
-    assert str(e.value) == f"{tmp_path / ('quadrupd' + ext)}:0: no such file (did you mean " \
+    assert str(e.value) == f"{tmp_path / ('quadrupd' + ext)}: no such file (did you mean " \
                            f"'{tmp_path / ('quadruped' + ext)}'?)"
-    with pytest.raises(MissingFileError, match=r"nowhere/x\.\w+:0: no such file; the directory '.*nowhere' does not"):
+    with pytest.raises(MissingFileError, match=r"nowhere/x\.\w+: no such file; the directory '.*nowhere' does not"):
         read(tmp_path / "nowhere" / f"x{ext}")
 
 

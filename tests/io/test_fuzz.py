@@ -27,7 +27,7 @@ MODELS = Path(__file__).resolve().parents[2] / "models"
 WL = {p.name: p.read_bytes() for p in sorted(MODELS.glob("*.wl"))}
 CTL = {p.name: p.read_bytes() for p in sorted(MODELS.glob("*.ctl"))}
 # the controlled DOFs and harmonics of each controller's model, to read it as the CLI does
-CTL_SHAPE = {"hexapod.ctl": (12, 2), "quadruped-evolved.ctl": (8, 2), "quadruped-robust.ctl": (8, 2),
+CTL_SHAPE = {"hexapod.ctl": (12, 2), "quadruped-robust.ctl": (8, 2),
              "quadruped-trot.ctl": (8, 2),
              "worm.ctl": (4, 2)}
 

@@ -65,10 +65,12 @@ def _completed(path) -> int:
         return -1
 
 
-def test_two_real_processes_one_file(tmp_path):
-    """A writes; B (``--overwrite``, another seed) is refused with one line naming the file and A, exit 2, and the
-    file stays A's; readers read A's complete generations and say that it is still going; A killed -9, the next
-    writer goes ahead."""
+def test_two_real_processes_one_file(tmp_path, capsys):
+    """A writes (another process); B (``--overwrite``, another seed; this process) is refused with one line naming
+    the file and A, exit 2, and the file stays A's; readers read A's complete generations and say that it is still
+    going; A killed -9, the next writer goes ahead."""
+    from cpgjax.cli import main
+
     out = tmp_path / "same.h5"
     a = _cpgjax("evolve", "analytic:sphere:4", "--population", "8", "--generations", "100000", "--seed", "0",
                 "--quiet", "--out", str(out))
@@ -79,22 +81,20 @@ def test_two_real_processes_one_file(tmp_path):
         assert a.poll() is None and _completed(out) >= 3, "the first writer did not get going"
         created = read_attrs(out)["created"]
 
-        b = _cpgjax("evolve", "analytic:sphere:4", "--population", "8", "--generations", "20", "--seed", "5",
-                    "--quiet", "--out", str(out), "--overwrite")
-        _, err = b.communicate(timeout=180)
-        assert b.returncode == 2, err
-        lines = err.strip().splitlines()
-        assert len(lines) == 1 and str(out) in lines[0] and f"pid {a.pid}" in lines[0], err
+        capsys.readouterr()
+        assert main(["evolve", "analytic:sphere:4", "--population", "8", "--generations", "20", "--seed", "5",
+                     "--quiet", "--out", str(out), "--overwrite"]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1 and str(out) in lines[0] and f"pid {a.pid}" in lines[0], lines
         attrs = read_attrs(out)
         assert attrs["seed"] == 0 and attrs["created"] == created       # nothing changed: still A's run
 
         run = read_run(out)                                   # a reader needs no lock, sees complete rows
         assert run.writer is not None and run.writer["pid"] == a.pid
         assert run.genomes.shape[0] == run.fitness.shape[0] == run.completed >= 3
-        best = _cpgjax("best", str(out))
-        bout, berr = best.communicate(timeout=180)
-        assert best.returncode == 0, berr
-        assert "still being written" in berr and f"pid {a.pid}" in berr and "best fitness" in bout
+        assert main(["best", str(out)]) == 0
+        got = capsys.readouterr()
+        assert "still being written" in got.err and f"pid {a.pid}" in got.err and "best fitness" in got.out
 
         a.send_signal(signal.SIGKILL)
         a.wait(timeout=30)
@@ -102,9 +102,7 @@ def test_two_real_processes_one_file(tmp_path):
         if a.poll() is None:
             a.kill()
     assert read_run(out).writer is None
-    c = _cpgjax("evolve", "analytic:sphere:4", "--population", "8", "--generations", "5", "--seed", "5",
-                "--quiet", "--out", str(out), "--overwrite")
-    _, err = c.communicate(timeout=180)
-    assert c.returncode == 0, err                             # the lock left by kill -9 did not block
+    assert main(["evolve", "analytic:sphere:4", "--population", "8", "--generations", "5", "--seed", "5",
+                 "--quiet", "--out", str(out), "--overwrite"]) == 0       # the lock left by kill -9 did not block
     assert read_attrs(out)["seed"] == 5 and read_run(out).completed == 5
     assert not os.path.exists(runlock.lock_path(out))

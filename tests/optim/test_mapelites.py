@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import h5py
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -55,23 +56,24 @@ def test_mapelites_fills_every_cell_and_converges_to_each_cells_optimum(tmp_path
 
 
 def test_insertion_keeps_the_better_elite():
+    insert = jax.jit(me.insert)                  # one compiled program per batch shape (eagerly: ~80 small ones)
     st = me.empty_archive(3, 2, 1, 4)
     g = jnp.asarray([[1.0, 1.0], [2.0, 2.0], [3.0, 3.0], [4.0, 4.0]])
     f = jnp.asarray([0.3, 0.5, 0.2, 9.0])
     d = jnp.asarray([[0.1], [0.2], [0.3], [0.4]])
     cells = jnp.asarray([1, 1, 2, 0], jnp.int32)
     valid = jnp.asarray([True, True, True, False])        # the fittest child is invalid (diverged): never inserted
-    st = me.insert(st, g, f, d, cells, valid)
+    st = insert(st, g, f, d, cells, valid)
     np.testing.assert_array_equal(np.asarray(st.filled), [False, True, True])
     np.testing.assert_array_equal(np.asarray(st.fitness)[1:], np.float32([0.5, 0.2]))
     np.testing.assert_array_equal(np.asarray(st.genomes)[1:], [[2.0, 2.0], [3.0, 3.0]])
     np.testing.assert_array_equal(np.asarray(st.descriptors)[1:, 0], np.float32([0.2, 0.3]))
     # worse: kept; equal: kept (strictly better replaces); better: replaced (the first of two equal ones)
-    one = lambda x, fit, c: me.insert(st, jnp.full((2, 2), x), jnp.asarray(fit, jnp.float32),  # noqa: E731
+    one = lambda x, fit, c: insert(st, jnp.full((2, 2), x), jnp.asarray(fit, jnp.float32),  # noqa: E731
                                       jnp.full((2, 1), x), jnp.asarray(c, jnp.int32), jnp.ones(2, bool))
     assert float(one(7.0, [0.4, 0.1], [1, 2]).fitness[1]) == np.float32(0.5)
     assert float(one(7.0, [0.5, 0.2], [1, 2]).genomes[1, 0]) == 2.0
-    st2 = me.insert(st, jnp.asarray([[5.0, 5.0], [6.0, 6.0]]), jnp.asarray([0.7, 0.7]), jnp.asarray([[0.5], [0.6]]),
+    st2 = insert(st, jnp.asarray([[5.0, 5.0], [6.0, 6.0]]), jnp.asarray([0.7, 0.7]), jnp.asarray([[0.5], [0.6]]),
                     jnp.asarray([1, 1], jnp.int32), jnp.ones(2, bool))
     assert float(st2.fitness[1]) == np.float32(0.7) and float(st2.genomes[1, 0]) == 5.0
     assert float(st2.fitness[2]) == np.float32(0.2)
@@ -86,7 +88,7 @@ def test_cell_index_row_major_clipped_and_nan_is_no_cell():
 
 
 def test_the_archive_rebuilt_from_the_file_equals_the_runs_and_resume_is_bit_for_bit(tmp_path):
-    c = cfg(evaluations=64 * 12, chunk=4)
+    c = cfg(evaluations=64 * 12)                  # chunks of 10: the compiled program of the other tests
     full = run_repertoire(PROBLEM, c, tmp_path / "a.h5")
     run_repertoire(PROBLEM, c, tmp_path / "b.h5", stop_after=5)          # stops inside a chunk
     part = read_repertoire(tmp_path / "b.h5")

@@ -227,16 +227,14 @@ def test_example_robots_have_a_scene(name):
     assert masks[0].sum() > 200, name
 
 
-def test_a_run_files_best_renders_through_the_command_line(tmp_path, capsys):
+def test_a_run_files_best_renders_through_the_command_line(tiny_runs, tmp_path, capsys):
     """``cpgjax render RUN.h5 [--generation G]``: the run's best (of that generation) on the run's own model."""
     from cpgjax import cli
 
-    run = tmp_path / "run.h5"
-    assert cli.main(["evolve", "models/quadruped.wl", "--time", "0.5", "--population", "4", "--generations", "2",
-                     "--out", str(run), "--quiet"]) == 0
+    run = tiny_runs["thesis"]
     out = tmp_path / "best.gif"
-    assert cli.main(["render", str(run), "--generation", "1", "--time", "0.5", "--fps", "10", "--size", "80x60",
+    assert cli.main(["render", run, "--generation", "1", "--time", "0.3", "--fps", "10", "--size", "80x60",
                      "--camera", "fixed", "--out", str(out), "--quiet"]) == 0
     assert out.stat().st_size > 1000 and "fitness" in capsys.readouterr().out
-    assert cli.main(["render", str(run), "--generation", "5", "--out", str(tmp_path / "x.gif")]) == 2
+    assert cli.main(["render", run, "--generation", "5", "--out", str(tmp_path / "x.gif")]) == 2
     assert "generations 0..1" in capsys.readouterr().err and not (tmp_path / "x.gif").exists()

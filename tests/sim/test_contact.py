@@ -96,8 +96,7 @@ def test_the_friction_bristle_holds_with_its_spring_and_slides_at_the_coulomb_ca
 
     from cpgjax.sim.contact import contact_forces
     from cpgjax.sim.rotation import quat_to_mat
-    from cpgjax.sim.state import initial_state
-    from cpgjax.sim.step import point_kinematics
+    from cpgjax.sim.state import initial_state, point_kinematics
 
     m = box(z=0.049, friction=0.8, extra="FrictionSpring 2e4 50").replace(fixed=np.array([True]))
     assert (m.friction_k, m.friction_b) == (2e4, 50.0)

@@ -1,4 +1,4 @@
-"""Free rigid bodies (cpgjax/sim/bodies.py): free fall, momentum and energy."""
+"""Free rigid bodies (cpgjax/sim/springs/bodies.py): free fall, momentum and energy."""
 
 import jax
 import jax.numpy as jnp
@@ -7,8 +7,8 @@ from simcases import box, chain, energy
 
 from cpgjax.episode.batch import simulate
 from cpgjax.io.logs import quat_to_mat_np
+from cpgjax.sim import step
 from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
 
 
 def test_free_fall_matches_z0_minus_half_g_t2():

@@ -1,6 +1,7 @@
-"""Exact joints (cpgjax/sim/articulated.py, tree.py): physics against physics, and against the thesis's pipeline.
+"""Exact joints' step (cpgjax/sim/exact/step.py): physics against physics, and against the thesis's pipeline.
 
 Small models keep the compiled programs small (the step is straight-line code whose size grows with the robot).
+The stages one by one against MuJoCo C: test_stages.py; the tree: test_tree.py.
 """
 
 import jax
@@ -10,10 +11,8 @@ import pytest
 from simcases import box, chain, double_pendulum, energy, model_from, pendulum, period, rig
 
 from cpgjax.episode.batch import simulate
-from cpgjax.errors import DescriptionError
+from cpgjax.sim import step
 from cpgjax.sim.state import initial_state
-from cpgjax.sim.step import step
-from cpgjax.sim.tree import build_levels, build_tree
 
 
 def test_pendulum_has_the_small_angle_period_of_its_inertia_at_a_2_ms_step():
@@ -62,7 +61,8 @@ def _tumbling_chain(dt):
     free = m.replace(j_kp=np.zeros(2), j_kd=np.zeros(2))          # no servo: internal forces only
     s0 = initial_state(free, 1)
     # set it tumbling: a spin of the base and both joints moving
-    s0 = s0._replace(gv=jnp.array([[2.0], [-3.0]]), w=s0.w.at[:, 0].set(jnp.array([[0.5], [1.0], [-0.7]])))
+    s0 = s0._replace(exact=s0.exact._replace(rate=jnp.array([[2.0], [-3.0]])),
+                     w=s0.w.at[:, 0].set(jnp.array([[0.5], [1.0], [-0.7]])))
     s0 = step(free, s0, (jnp.zeros((2, 1)), jnp.zeros((2, 1))))   # body velocities consistent with the coordinates
     return free, s0
 
@@ -95,7 +95,7 @@ def test_a_passive_double_pendulum_keeps_its_energy_without_damping():
     _, traj = _run(m, s0, 2000)
     tr = {"x": traj.x[:, :, :, 0], "v": traj.v[:, :, :, 0], "w": traj.w[:, :, :, 0], "q": traj.q[:, :, :, 0]}
     e = energy(m, tr)
-    swing = float(np.ptp(np.asarray(traj.gq[:, 0, 0])))
+    swing = float(np.ptp(np.asarray(traj.exact.angle[:, 0, 0])))
     assert swing > 1.0            # it really swings (a chaotic double pendulum from 1 rad)
     # semi-implicit Euler: bounded oscillation of the energy, no growth; measured at 1 ms over 2 s: 0.3 % of the
     # swing's kinetic energy scale (m g l = 4 J), checked at 2 %
@@ -181,102 +181,3 @@ def test_results_do_not_depend_on_the_batch_size():
     many = simulate(m, c, time=0.5)
     for k in ("fitness", "distance"):
         np.testing.assert_array_equal(one[k], many[k][:3])
-
-
-def test_a_robot_rooted_at_a_middle_body_walks_its_joints_the_files_way():
-    """The worm is tracked at its middle segment: the tree walks two joints from child to parent; the angles
-    the state keeps are still the file's (body_b relative to body_a), as the bodies' rotations measure them."""
-    from cpgjax.io.wl import load_model
-    from cpgjax.sim.joints import joint_angles
-    from cpgjax.sim.rotation import quat_to_mat
-
-    m = load_model("models/worm.wl", pipeline="exact")
-    t = m.tree
-    assert t.roots[0] == m.track and (t.sign < 0).sum() >= 1
-    s = initial_state(m, 1)
-    s = s._replace(gq=s.gq + jnp.linspace(-0.3, 0.3, m.nj)[:, None])
-    s = jax.jit(lambda s: step(m, s, (s.gq[m.ctrl_joint], jnp.zeros((m.n_ctrl, 1)))))(s)
-    angle, _, _ = joint_angles(m, quat_to_mat(s.q), s.w)
-    np.testing.assert_allclose(np.asarray(angle), np.asarray(s.gq), atol=1e-5)
-
-
-@pytest.mark.parametrize("text, match", [
-    ("""
-Track A
-Object A {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Object B {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-    Fixed
-}
-Joint J {
-    A 0 0 -.05
-    B 0 0 .05
-    ControlX
-}
-""", r"Joint 'J': body 'B' is Fixed"),
-])
-def test_what_exact_joints_cannot_express_is_a_path_line_error(text, match):
-    line = next(i for i, t in enumerate(text.split("\n"), 1) if t.startswith("Joint J"))
-    with pytest.raises(DescriptionError, match=f"^<test>:{line}: {match}"):
-        model_from(text, pipeline="exact")
-    model_from(text, pipeline="springs")      # the thesis's pipeline takes it
-
-
-def test_a_loop_of_joints_is_a_path_line_error():
-    text = """
-Object A {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Object B {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Object C {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Joint J1 {
-    A 0 0 -.05
-    B 0 0 .05
-    ControlX
-}
-Joint J2 {
-    B 0 0 -.05
-    C 0 0 .05
-    ControlX
-}
-Joint J3 {
-    C 0 0 -.05
-    A 0 0 .05
-    ControlX
-}
-"""
-    with pytest.raises(DescriptionError, match=r"<test>:\d+: .*loop"):
-        model_from(text, pipeline="exact")
-
-
-def test_the_tree_of_the_quadruped_has_its_legs_by_depth():
-    from cpgjax.io.wl import load_model
-
-    m = load_model("models/quadruped.wl", pipeline="exact")
-    t = build_tree(m, m.description)
-    lv = build_levels(t)
-    names = m.body_names
-    assert [names[b] for b in lv.bodies[0]] == ["Body"] and list(lv.free) == [True]
-    # every upper leg hangs from the body, every lower leg from its own upper leg, each by its own joint
-    for i, b in enumerate(lv.bodies[2]):
-        upper = lv.bodies[1][lv.parent[2][i]]
-        assert names[b].replace("LegL", "") == names[upper].replace("LegU", "")
-        assert m.joint_names[lv.joint[2][i]] == "Knee" + names[b][4:]
-    assert sorted(m.joint_names[k] for k in lv.joint[1]) == sorted(n for n in m.joint_names if n.startswith("Hip"))
-    assert (t.sign > 0).all()

@@ -1,14 +1,14 @@
 """The kinematic tree of the exact-joint pipeline: generalized coordinates from a `.wl` model's joints.
 
-The thesis's pipeline (`sim.step`) keeps every body free and holds its joints with pivot springs (eq. 3.6).
-The exact-joint pipeline (`sim.articulated`) instead describes the robot by *generalized coordinates*:
+The thesis's pipeline (`sim.springs`) keeps every body free and holds its joints with pivot springs (eq. 3.6).
+The exact-joint pipeline (`sim.exact`) instead describes the robot by *generalized coordinates*:
 each tree of bodies has a floating base (its root body's CM position and orientation, 6 velocity DOFs;
 none if the root is ``Fixed``) and one angle per revolute joint, so that the joints hold exactly and the
 step is no longer bound by the pivot springs' stiffness.
 
 The tree comes from the joints and is rooted at the tracked body (``Track``); a joint written from child
 to parent is walked the other way (its angle keeps the file's sign).  :class:`Levels` groups the bodies
-by depth: `sim.articulated` works one depth at a time, a root's six DOFs (3 linear, then 3 angular) above
+by depth: `sim.exact` works one depth at a time, a root's six DOFs (3 linear, then 3 angular) above
 its first level's joints, each joint's DOF above its children's (the sparsity its factorization keeps).
 """
 
@@ -177,3 +177,21 @@ def build_levels(tree: Tree) -> Levels:
                   axis_index=tuple(axis_index), r_parent=tuple(rp), r_child=tuple(rc),
                   free=np.array([tree.free_root[b] for b in bodies[0]], bool), below=tuple(below),
                   level_of=level_of, item_of=item_of)
+
+
+@dataclass(frozen=True, eq=False)
+class ExactModel:
+    """The exact pipeline's part of a `~cpgjax.sim.model.Model`: its tree, the tree by depth, and whether its
+    step's stages are computed once into memory (`sim.tricks.keep`; False only to measure what that buys,
+    ``cpgjax bench --tricks``: the values are the same)."""
+
+    tree: Tree
+    levels: Levels
+    materialize: bool = True
+
+
+def build_exact(model, desc, materialize: bool = True) -> ExactModel:
+    """The exact pipeline's part of ``model`` (built from ``desc``; :class:`DescriptionError` for what exact joints
+    cannot express)."""
+    tree = build_tree(model, desc)
+    return ExactModel(tree=tree, levels=build_levels(tree), materialize=materialize)

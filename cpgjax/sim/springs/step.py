@@ -1,4 +1,4 @@
-"""One simulation step of a batch of robots: ``step(model, state, ctrl) -> state`` (Ch. 3.4.1).
+"""One step of the thesis's pipeline: ``step(model, state, ctrl) -> state`` (Ch. 3.4.1).
 
 The stages follow the thesis's dynamics engine (Ch. 3.4.1, Appendix B): pivot positions
 and velocities, joint penalties, servo torques, gravity; then the ground collisions, solved
@@ -12,19 +12,14 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim import articulated
-from cpgjax.sim.bodies import accelerations, force_accelerations, integrate, torque_accelerations
+from cpgjax.sim import tricks
 from cpgjax.sim.contact import contact_body_ranges, contact_forces
-from cpgjax.sim.joints import joint_angles, limit_torques, pivot_spring_forces
-from cpgjax.sim.rotation import cross, dot, matvec, quat_to_mat
+from cpgjax.sim.joints import joint_angles, limit_torques
+from cpgjax.sim.rotation import cross, dot, quat_to_mat
 from cpgjax.sim.servo import servo_pi, servo_torques
-
-
-def point_kinematics(model, state, R):
-    """World offset from the CM, position and velocity [3, npt, B] of every point."""
-    pb = model.pt_body
-    r = matvec(R[:, :, pb], model.pt_local[:, :, None])
-    return r, state.x[:, pb] + r, state.v[:, pb] + cross(state.w[:, pb], r)
+from cpgjax.sim.springs.bodies import accelerations, force_accelerations, integrate, torque_accelerations
+from cpgjax.sim.springs.pivots import pivot_spring_forces
+from cpgjax.sim.state import point_kinematics
 
 
 def sum_onto_bodies(model, f_pt, torque_joint):
@@ -68,7 +63,7 @@ def forces(model, state, ctrl, var=None):
     r, p, pv = point_kinematics(model, state, R)
     fs = pivot_spring_forces(model, p, pv)
     no_contact = jnp.zeros((3, len(model.ct_pt), fs.shape[-1]), fs.dtype)
-    f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.pt_src]
+    f_pt = jnp.concatenate([fs, -fs, no_contact], 1)[:, model.springs.pt_src]
     angle, rate, axis = joint_angles(model, R, state.w)
     tau_pi, err = servo_pi(model, angle, target, state.e_int, None if var is None else var.gain)
     tau = limit_torques(model, angle, rate).at[model.ctrl_joint].add(tau_pi)
@@ -90,25 +85,31 @@ def servo_derivative(model, R, ctrl, joints, alpha, var=None):
     ja, jb = model.j_a[cj], model.j_b[cj]
     rate_pred = rate[cj] + model.dt * dot(alpha[:, jb] - alpha[:, ja], axis[:, cj])
     gain = None if var is None else var.gain
-    extra = servo_torques(model, tau_pi, rate_pred, ctrl[1], gain, torque=None if var is None else var.torque) - tau_pi
+    torque = None if var is None else var.torque
+    extra = servo_torques(model, tau_pi, rate_pred, ctrl[1], gain, torque=torque) - tau_pi
     tau = jnp.zeros_like(rate).at[cj].set(extra)
     return torque_accelerations(model, R, sum_onto_bodies(model, None, tau * axis), None if var is None else var.mass)
 
 
 def step(model, state, ctrl, var=None):
-    """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``.
+    """Advance the batch by one step of ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)``, the joints held by
+    pivot springs.
 
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (``None``: the nominal robot).
-    A model built with ``pipeline="exact"`` runs on exact joints (`sim.articulated`); the thesis's pipeline,
-    below, holds them with pivot springs.
     """
-    if model.pipeline == "exact":
-        return articulated.step(model, state, ctrl, var)
     scale = None if var is None else var.mass
     R, r, p, pv, force, torque, err, joints = forces(model, state, ctrl, var)
     a, alpha = accelerations(model, R, state.w, force, torque, scale)
     alpha = alpha + servo_derivative(model, R, ctrl, joints, alpha, var)
-    fc, _, anchor, f_n = contact_forces(model, R, r, p, pv, a, alpha, state.anchor, state.f_n, var)
+    # On uneven terrain the contact frame under each vertex (looked up in the heightfield) and the contact forces
+    # are computed once into memory (`sim/tricks.py: keep`): XLA's CPU fusion otherwise recomputed the frame for
+    # every component and every body sum that reads it, in scalar code (the car on its ramp: 5x the CPU per
+    # step, at 1 and at 16 robots; the quadruped on 2 cm roughness 3.6x; docs/results/performance.md).  Flat
+    # ground has no lookup and is left as it was, bit for bit.
+    keep = None if model.terrain.flat else tricks.keep
+    fc, _, anchor, f_n = contact_forces(model, R, r, p, pv, a, alpha, state.anchor, state.f_n, var, keep)
+    if keep is not None:
+        fc = keep(fc)
     ac, alc = force_accelerations(model, R, *sum_contacts_onto_bodies(model, fc, r[:, model.ct_pt]), scale)
     new = integrate(state, a + ac, alpha + alc, model.dt)
     return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, f_n=f_n, n=state.n + 1)

@@ -1,0 +1,111 @@
+"""The exact pipeline's tree (cpgjax/sim/exact/tree.py): generalized coordinates from a `.wl` file's joints, by depth;
+what exact joints cannot express is a ``path:line`` error."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from simcases import model_from
+
+from cpgjax.errors import DescriptionError
+from cpgjax.sim import initial_state, step
+from cpgjax.sim.exact.tree import build_levels, build_tree
+
+
+def test_a_robot_rooted_at_a_middle_body_walks_its_joints_the_files_way():
+    """The worm is tracked at its middle segment: the tree walks two joints from child to parent; the angles
+    the state keeps are still the file's (body_b relative to body_a), as the bodies' rotations measure them."""
+    from cpgjax.io.wl import load_model
+    from cpgjax.sim.joints import joint_angles
+    from cpgjax.sim.rotation import quat_to_mat
+
+    m = load_model("models/worm.wl", pipeline="exact")
+    t = m.exact.tree
+    assert t.roots[0] == m.track and (t.sign < 0).sum() >= 1
+    s = initial_state(m, 1)
+    s = s._replace(exact=s.exact._replace(angle=s.exact.angle + jnp.linspace(-0.3, 0.3, m.nj)[:, None]))
+    s = jax.jit(lambda s: step(m, s, (s.exact.angle[m.ctrl_joint], jnp.zeros((m.n_ctrl, 1)))))(s)
+    angle, _, _ = joint_angles(m, quat_to_mat(s.q), s.w)
+    np.testing.assert_allclose(np.asarray(angle), np.asarray(s.exact.angle), atol=1e-5)
+
+
+@pytest.mark.parametrize("text, match", [
+    ("""
+Track A
+Object A {
+    Type Cube
+    Mass 1
+    Dimensions .1 .1 .1
+}
+Object B {
+    Type Cube
+    Mass 1
+    Dimensions .1 .1 .1
+    Fixed
+}
+Joint J {
+    A 0 0 -.05
+    B 0 0 .05
+    ControlX
+}
+""", r"Joint 'J': body 'B' is Fixed"),
+])
+def test_what_exact_joints_cannot_express_is_a_path_line_error(text, match):
+    line = next(i for i, t in enumerate(text.split("\n"), 1) if t.startswith("Joint J"))
+    with pytest.raises(DescriptionError, match=f"^<test>:{line}: {match}"):
+        model_from(text, pipeline="exact")
+    model_from(text, pipeline="springs")      # the thesis's pipeline takes it
+
+
+def test_a_loop_of_joints_is_a_path_line_error():
+    text = """
+Object A {
+    Type Cube
+    Mass 1
+    Dimensions .1 .1 .1
+}
+Object B {
+    Type Cube
+    Mass 1
+    Dimensions .1 .1 .1
+}
+Object C {
+    Type Cube
+    Mass 1
+    Dimensions .1 .1 .1
+}
+Joint J1 {
+    A 0 0 -.05
+    B 0 0 .05
+    ControlX
+}
+Joint J2 {
+    B 0 0 -.05
+    C 0 0 .05
+    ControlX
+}
+Joint J3 {
+    C 0 0 -.05
+    A 0 0 .05
+    ControlX
+}
+"""
+    with pytest.raises(DescriptionError, match=r"<test>:\d+: .*loop"):
+        model_from(text, pipeline="exact")
+
+
+def test_the_tree_of_the_quadruped_has_its_legs_by_depth():
+    from cpgjax.io.wl import load_model
+
+    m = load_model("models/quadruped.wl", pipeline="exact")
+    t = build_tree(m, m.description)
+    lv = build_levels(t)
+    names = m.body_names
+    assert [names[b] for b in lv.bodies[0]] == ["Body"] and list(lv.free) == [True]
+    # every upper leg hangs from the body, every lower leg from its own upper leg, each by its own joint
+    for i, b in enumerate(lv.bodies[2]):
+        upper = lv.bodies[1][lv.parent[2][i]]
+        assert names[b].replace("LegL", "") == names[upper].replace("LegU", "")
+        assert m.joint_names[lv.joint[2][i]] == "Knee" + names[b][4:]
+    assert sorted(m.joint_names[k] for k in lv.joint[1]) == sorted(n for n in m.joint_names if n.startswith("Hip"))
+    assert (t.sign > 0).all()
