@@ -103,7 +103,9 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     divided by the whole episode's length); ``down`` says which robots fell so (always False without it)
     and ``up`` the share of the episode before the fall (1 without one).
     With ``record=True`` also ``traj``: x, q [S, ., nb, B], angle, target [S, n, B], t [S], with
-    S = samples + 1: t = 0, 1/LogRate, ..., T.
+    S = samples + 1: t = 0, 1/LogRate, ..., T; for a closed loop also the last step's ``obs`` [S, in, B] (the
+    observation it read), its action ``offsets`` [S, n_ctrl, B], ``frequency`` and ``amplitude`` [S, B] and the
+    phase offset ``phase`` [S, B] (at t = 0: the first step's).
     With ``stability_series=True`` (thesis Ch. 6.4, :func:`probe`) also, computed in the scan at every
     log sample: ``S`` and ``proj`` [samples, B] (vestibular and projection stability, NaN where the
     latter is undefined), ``S_mean``, ``proj_mean`` (over the defined samples; NaN if none), ``proj_min``
