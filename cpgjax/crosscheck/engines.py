@@ -265,7 +265,10 @@ def _foot_geoms(model, mj) -> np.ndarray:
     for k, pt in enumerate(model.ct_pt):
         hit = np.nonzero(feet[:, k])[0]
         if len(hit):
-            gid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_GEOM, f"{model.body_names[model.pt_body[pt]]}_c{k}")
+            name = f"{model.body_names[model.pt_body[pt]]}_c{k}"
+            gid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_GEOM, name)
+            if gid < 0:
+                raise ValueError(f"the exported model has no contact sphere {name!r} (crosscheck.mjcf)")
             leg_of[gid] = hit[0]
     return leg_of
 
