@@ -22,7 +22,7 @@ GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossov
 SEARCH_OPTIONS = ("method", "samples", "batch", "M", "width_end", "seed", "chunk")
 ES_OPTIONS = ("method", "samples", "population", "sigma", "lr", "seed", "chunk")
 ES_METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")   # cpgjax.optim.es.METHODS (no import at start-up)
-PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline", "start")
+PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline", "start", "controller")
 
 
 def register(subparsers: Any) -> None:
@@ -48,6 +48,7 @@ def register(subparsers: Any) -> None:
                             "sinusoid per joint (the GA moves each of its genes by --init-spread); recorded in the "
                             "run file")
         o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
+        o.controller_option(p)
         o.seed_option(p, None, shown=d.seed)
         p.add_argument("--chunk", type=o.count, default=None,
                        help=f"generations per jitted chunk; a kill loses at most the chunk in flight "
@@ -231,8 +232,11 @@ def cmd_search(args: argparse.Namespace) -> int:
 
 
 def cmd_best(args: argparse.Namespace) -> int:
+    import jax
     import numpy as np
 
+    from cpgjax.episode.policy import family_from_meta, from_genomes, table_fields
+    from cpgjax.io.ctl import PolicyTable
     from cpgjax.io.results import read_run, writing_note
 
     o.check_output_file(args.ctl, "--ctl")
@@ -255,26 +259,41 @@ def cmd_best(args: argparse.Namespace) -> int:
         gen, idx, fit, genome = ch.generation, ch.index, ch.recorded, ch.genome
     n_dof, harmonics = int(run.meta.get("n_dof", 0) or 0), int(run.meta.get("harmonics", -1))
     ncoef = 2 * harmonics + 1
-    if args.ctl and not (harmonics >= 0 and n_dof * ncoef == genome.size):
+    family = family_from_meta(run.meta)
+    policy, cpg_genes = None, genome
+    if family is not None:       # a closed-loop controller: the CPG's genes, then the policy's
+        from cpgjax.io.wl import parse_wl
+        from cpgjax.sim.model import build_model
+
+        model = build_model(parse_wl(str(run.meta.get("model_text", "")), str(run.meta.get("model_path", args.run))),
+                            pipeline=run.pipeline)
+        cl = from_genomes(family, model, np.asarray(genome, np.float32)[None])
+        cl = jax.tree.map(lambda a: np.asarray(a)[0], cl)
+        policy, cpg_genes = PolicyTable(**table_fields(cl, model)), np.asarray(genome)[: n_dof * ncoef]
+    if args.ctl and not (harmonics >= 0 and n_dof * ncoef == cpg_genes.size):
         raise ValueError(f"{args.run}: the run does not record n_dof and harmonics: cannot write a .ctl")
     what = "champion" if args.validate else "best"
     print(f"{args.run}: {what} fitness {fit:.6f} at generation {gen}, individual {idx} "
           f"({run.kind}, {run.completed} generations, {run.pipeline} pipeline)")
-    if harmonics >= 0 and n_dof * ncoef == genome.size:
-        coeffs = np.asarray(genome, np.float64).reshape(n_dof, ncoef)
+    if harmonics >= 0 and n_dof * ncoef == cpg_genes.size:
+        coeffs = np.asarray(cpg_genes, np.float64).reshape(n_dof, ncoef)
         names = ["c0"] + [f"{ab}{k}" for k in range(1, harmonics + 1) for ab in ("a", "b")]
         print("dof  " + "  ".join(f"{n:>9}" for n in names))
         for j, row in enumerate(coeffs):
             print(f"{j:>3}  " + "  ".join(f"{v:9.6f}" for v in row))
     else:
         print("genome: " + " ".join(f"{v:.6f}" for v in genome))
+    if policy is not None:
+        w = np.abs(policy.weights)
+        print(f"policy {family.spec}: {w.shape[0]} outputs x {w.shape[1]} inputs, {int((w > 0).sum())} weights not 0, "
+              f"largest |w| {w.max():.4f}")
     if args.ctl:
         from cpgjax.io.ctl import write_ctl
 
         d = os.path.dirname(args.ctl)
         if d:
             os.makedirs(d, exist_ok=True)
-        write_ctl(args.ctl, coeffs, fit, exact=not args.round)
+        write_ctl(args.ctl, coeffs, fit, exact=not args.round, policy=policy)
         print(f"wrote {args.ctl}")
     return 0
 

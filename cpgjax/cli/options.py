@@ -134,18 +134,24 @@ def terrain(text: str) -> str:
 
 
 def perturbations(text: str) -> dict:
-    """``KEY=VALUE,...`` ranges of the robust evaluation (cpgjax.episode.perturb.Perturbations), checked now."""
+    """``KEY=VALUE,...`` ranges of the robust evaluation (cpgjax.episode.perturb.Perturbations), checked now;
+    ``preset=NAME`` starts from a named set of them (``domain``: domain randomisation)."""
     import dataclasses
 
-    from cpgjax.episode.perturb import Perturbations
+    from cpgjax.episode.perturb import PRESETS, Perturbations
 
-    fields = {f.name: f.type for f in dataclasses.fields(Perturbations)}
+    fields = {f.name: f.type for f in dataclasses.fields(Perturbations)} | {"preset": "str"}
     out: dict = {}
     for item in (x.strip() for x in text.split(",") if x.strip()):
         key, sep, value = item.partition("=")
         key = key.strip().replace("-", "_")
         if not sep or key not in fields:
             raise argparse.ArgumentTypeError(f"expected KEY=VALUE with KEY in {', '.join(fields)}, got {item!r}")
+        if key == "preset":
+            if value.strip() not in PRESETS:
+                raise argparse.ArgumentTypeError(f"preset: expected one of {', '.join(PRESETS)}, got {value!r}")
+            out[key] = value.strip()
+            continue
         try:
             kind = fields[key]    # the annotation, a string under `from __future__ import annotations`
             out[key] = (value.strip().lower() in ("1", "on", "true", "yes") if kind in (bool, "bool")
@@ -153,10 +159,32 @@ def perturbations(text: str) -> dict:
         except ValueError:
             raise argparse.ArgumentTypeError(f"{key}: expected a number, got {value!r}") from None
     try:
-        Perturbations(**out)
+        Perturbations.from_settings(out)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from None
     return out
+
+
+def controller(text: str) -> str:
+    """A controller family (``cpg``, ``pmtg[:GROUP+GROUP...]``; cpgjax.episode.policy), checked now."""
+    from cpgjax.episode.policy import parse_controller
+
+    try:
+        parse_controller(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text.strip()
+
+
+def controller_option(p: argparse.ArgumentParser) -> None:
+    """``--controller cpg|pmtg[:GROUP+...]``: the controller family evolved (``None`` when left out: the CPG)."""
+    from cpgjax.episode.policy import CONTROLLER_SYNTAX
+    from cpgjax.episode.sensors import GROUPS
+
+    p.add_argument("--controller", type=controller, default=None, metavar="FAMILY",
+                   help=f"{CONTROLLER_SYNTAX}: cpg, the thesis's open-loop CPG (default); pmtg, the CPG modulated by "
+                        f"a linear feedback policy reading the sensors (groups {', '.join(GROUPS)}: all by default) "
+                        "-- docs/evolution.md")
 
 
 TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
@@ -218,7 +246,8 @@ def evaluation_options(p: argparse.ArgumentParser) -> None:
                         "lift 0.005 m, tilt 0.02 rad, roughness 0 m (e.g. 0.003: 1.8x slower), friction/mass/gain "
                         "10/5/10 %%, jitter 1e-3, fall_ends on, fall_zero off: on, a fall forfeits the episode; "
                         "fall_survival off: on, a fall scales the episode's score by the share of it "
-                        "before the fall)")
+                        "before the fall; off: torque, stiffness, damping, relief, and for closed-loop controllers "
+                        "noise, latency); preset=domain: domain randomisation (docs/evolution.md)")
 
 
 def run_file_options(p: argparse.ArgumentParser, what: str = "run", *, resume: bool = True) -> None:

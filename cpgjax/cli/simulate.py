@@ -40,14 +40,16 @@ def register(subparsers: Any) -> None:
     r.set_defaults(func=cmd_robustness)
 
 
-def load_controller(ctl: str | None, model) -> tuple[np.ndarray, str]:
-    """The coefficients of ``ctl`` for ``model`` (zeros without one) and the controller's name."""
+def load_controller(ctl: str | None, model):
+    """The controller of ``ctl`` for ``model`` (zeros without one) and its name: CPG coefficients [n_ctrl, 2K+1],
+    or a closed-loop controller (:func:`cpgjax.episode.policy.from_control`)."""
+    from cpgjax.episode.policy import from_control
     from cpgjax.io.ctl import read_ctl
 
     if not ctl:
         return np.zeros((model.n_ctrl, model.n_coeff)), "-"
     c = read_ctl(ctl, n_dof=model.n_ctrl, harmonics=model.harmonics)
-    return np.asarray(c.coeffs), ctl
+    return from_control(c, model), ctl
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -97,13 +99,20 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     from cpgjax.io.wl import load_model
 
     model = load_model(args.model, terrain=args.terrain, pipeline=args.pipeline)
+    from cpgjax.episode.policy import from_genomes, is_closed, to_genome
+
     coeffs, name = load_controller(args.ctl, model)
+    family = coeffs.family if is_closed(coeffs) else None
+    genome = to_genome(coeffs, model) if family else np.asarray(coeffs).reshape(-1)
     rng = np.random.default_rng(args.seed)
     rows = []
     for eps in args.jitter:
-        C = coeffs[None] + rng.normal(0.0, eps, (args.n,) + coeffs.shape)
-        C[0] = coeffs
-        r = simulate(model, C, time=args.time, delta=args.delta)
+        C = genome[None] + rng.normal(0.0, eps, (args.n,) + genome.shape)
+        C[0] = genome
+        ctrl = from_genomes(family, model, C.astype(np.float32))
+        if family:   # replay 0: the weights as read (a gene times its scale may differ from them in the last bit)
+            ctrl.weights[0] = coeffs.weights
+        r = simulate(model, ctrl, time=args.time, delta=args.delta)
         f = r["fitness"]
         rows.append((eps, f[0], f.mean(), f.std(), f.min(), f.max(), int(r["fallen"].sum()),
                      int(r["diverged"].sum())))

@@ -82,15 +82,15 @@ def cmd_stability(args: argparse.Namespace) -> int:
 
 
 def _controllers(args, model_path: str) -> int:
-    import numpy as np
-
+    from cpgjax.episode.policy import from_control, stack
     from cpgjax.experiments.stability import perturbation_experiment, save
     from cpgjax.io.ctl import read_ctl
     from cpgjax.io.wl import load_model
     from cpgjax.plots.stability import condition_panels, flat_panel
 
     model = load_model(model_path, pipeline=args.pipeline)
-    coeffs = np.stack([read_ctl(c, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs for c in args.ctl])
+    coeffs = stack([from_control(read_ctl(c, n_dof=model.n_ctrl, harmonics=model.harmonics), model)
+                    for c in args.ctl], model)
     names = [_slug(c) for c in args.ctl]
     if len(set(names)) < len(names):
         names = [f"{i}-{n}" for i, n in enumerate(names)]
@@ -158,13 +158,14 @@ def _population(args) -> int:
     ranking, summary["most_robust"] = study.ranking()      # None: a tie
     summary["ranking"] = ranking
     falls = [summary["settings"][lab]["fall_perturbed"] for lab in ranking]
-    from cpgjax.io.ctl import write_ctl
+    from cpgjax.io.ctl import PolicyTable, write_ctl
 
     summary["picks"] = {}
     for name, p in study.picks.items():     # the thesis's stable and unstable controller, for the figures
         path = os.path.join(args.out, f"{name}.ctl")
-        write_ctl(path, p["coeffs"], p["ga_fitness"], exact=True)
-        summary["picks"][name] = {"ctl": path, **{k: v for k, v in p.items() if k != "coeffs"}}
+        policy = PolicyTable(**p["policy"]) if p.get("policy") else None    # a closed-loop controller's
+        write_ctl(path, p["coeffs"], p["ga_fitness"], exact=True, policy=policy)
+        summary["picks"][name] = {"ctl": path, **{k: v for k, v in p.items() if k not in ("coeffs", "policy")}}
     with open(os.path.join(args.out, "population.json"), "w") as f:
         json.dump(summary, f, indent=1)
     fall_probability(study).savefig(os.path.join(args.out, "population.png"), dpi=110)

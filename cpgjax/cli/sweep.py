@@ -107,6 +107,7 @@ def register(subparsers: Any) -> None:
     o.delta_option(p, of=f"{DEFAULT_DELTA:g}")
     o.evaluation_options(p)
     o.pipeline_option(p, "the model file's Pipeline, else springs; every run of a sweep folder has one")
+    o.controller_option(p)
     p.add_argument("--chunk", type=o.count, default=d.chunk, help=f"generations per jitted chunk (default {d.chunk})")
     p.add_argument("--group", choices=("all", "kind"), default="all",
                    help="all runs in one program (default) or one program per group of same-shaped runs")
@@ -159,6 +160,8 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
     problem_args: dict[str, Any] = {"model": args.model, "time": args.time, "terrain": args.terrain,
                                     "evaluation": args.evaluation, "perturb": args.perturb,
                                     "delta": args.delta, "pipeline": args.pipeline}
+    if args.controller is not None:
+        problem_args["controller"] = args.controller
     if args.preset:
         given = [f"--{k.replace('_', '-')}" for k in GRID if getattr(args, k) not in (None, False)]
         if given:

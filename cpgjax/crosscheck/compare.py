@@ -1,4 +1,4 @@
-"""`cpgjax crosscheck`: the same open-loop controllers in the penalty simulator, MuJoCo C and MJX.
+"""`cpgjax crosscheck`: the same controllers in the penalty simulator, MuJoCo C and MJX (MJX: open-loop ones).
 
 Per controller: forward distance, mean speed and fitness (eq. 4.6) in each engine; the
 Spearman rank correlation of fitness between engines; and, for one chosen controller,
@@ -21,26 +21,34 @@ ENGINES = ("penalty", "mujoco", "mjx")
 
 def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_perturbed: int = 0,
                 base_ctl: str | None = None, seed: int = 0):
-    """(coeffs [N, n_ctrl, 2K+1], labels) from .ctl files, the best of GA runs, random and perturbed ones."""
+    """(controllers, labels) from .ctl files, the best of GA runs, random and perturbed ones: coefficients
+    [N, n_ctrl, 2K+1], or, when some are closed-loop, a :class:`~cpgjax.episode.policy.ClosedLoop` of N (the
+    open-loop ones in it with a policy of zeros, which does what their CPG does; one family at a time)."""
+    import jax
+
+    from cpgjax.episode.policy import family_from_meta, from_control, from_genomes, stack
     from cpgjax.io.ctl import read_ctl
 
     out, labels = [], []
     for f in ctl_files:
-        out.append(read_ctl(f, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs)
+        out.append(from_control(read_ctl(f, n_dof=model.n_ctrl, harmonics=model.harmonics), model))
         labels.append(os.path.basename(f))
     for f in run_files:
         from cpgjax.io.results import read_run
 
         run = read_run(f)
+        family = family_from_meta(run.meta)
         fit = run.valid_fitness()  # [gens, N]
-        genomes = np.asarray(run.genomes)
+        genomes = np.asarray(run.genomes).reshape(-1, run.genomes.shape[-1])
         order = np.argsort(-fit.reshape(-1))
-        seen = 0
+        seen, kept = 0, []
         for k in order:
-            g = genomes.reshape(-1, genomes.shape[-1])[k]
-            if any(np.array_equal(g.reshape(model.n_ctrl, -1), c) for c in out):
+            g = genomes[k]
+            if any(np.array_equal(g, h) for h in kept):
                 continue
-            out.append(g.reshape(model.n_ctrl, model.n_coeff))
+            kept.append(g)
+            one = from_genomes(family, model, g[None].astype(np.float32))
+            out.append(jax.tree.map(lambda a: np.asarray(a)[0], one))
             labels.append(f"{os.path.basename(f)}#{k}")
             seen += 1
             if seen >= 8:
@@ -54,7 +62,7 @@ def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_pertu
         for i in range(n_perturbed):
             out.append(np.clip(base + rng.normal(0.0, 0.1, base.shape), -0.8, 0.8))
             labels.append(f"{os.path.basename(base_ctl)}+N(0,0.1)#{i}")
-    return np.asarray(out, float), labels
+    return stack(out, model), labels
 
 
 def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mjx: bool = True,
@@ -68,12 +76,15 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
     with MuJoCo better than it agrees with itself.
     """
     from cpgjax.episode.batch import simulate
+    from cpgjax.episode.policy import is_closed
 
     res = {}
     pen = simulate(model, coeffs, time=time, delta=delta, record=True)
     res["penalty"] = pen
     mj_met, mj_q, _ = mujoco_run(model, coeffs, time=time, delta=delta)
     res["mujoco"] = mj_met
+    if mjx and is_closed(coeffs):
+        raise ValueError("MJX replays open-loop controllers only: add --no-mjx for closed-loop ones")
     if mjx:
         mx_met, mx_q, _, _ = mjx_run(model, coeffs, time=time, delta=delta, fast=True, sample_every=25)
         res["mjx"] = mx_met

@@ -1,10 +1,12 @@
-"""The same open-loop controllers in MuJoCo (C, native batched rollout) and MJX.
+"""The same controllers in MuJoCo (C, native batched rollout) and MJX.
 
-The CPG is a function of time only, so a controller is a precomputed control sequence:
+The CPG is a function of time only, so an open-loop controller is a precomputed control sequence:
 ``u(t) = q*(t) + (kd/kp) q*'(t)`` per position actuator (this makes MuJoCo's
 ``kp (u - q) - kv qdot`` equal to our servo's ``kp (q* - q) + kd (q*' - qdot)``).
 Metrics are computed exactly as the penalty simulator does (eq. 4.5-4.6) from the
 tracked body's CM and orientation; the tracked body must be a root body (free joint).
+A closed-loop controller (:mod:`cpgjax.episode.policy`) reads its sensors from MuJoCo's state every step
+(:func:`mujoco_observe`, :func:`mujoco_closed_run`; MuJoCo C only).
 """
 
 from __future__ import annotations
@@ -94,9 +96,14 @@ def _rollout_from_rest(model, mj, ctrl: np.ndarray, nthread: int | None):
 
 def mujoco_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, timestep: float = MJ_TIMESTEP,
                nthread: int | None = None, mj=None):
-    """Roll out N controllers in MuJoCo C (native threaded rollout). Returns metrics, qpos [N, S, nq], wall."""
+    """Roll out N controllers in MuJoCo C (native threaded rollout). Returns metrics, qpos [N, S, nq], wall.
 
+    Closed-loop controllers (a :class:`~cpgjax.episode.policy.ClosedLoop`) run step by step with their policy
+    (:func:`mujoco_closed_run`)."""
+    from cpgjax.episode.policy import is_closed
 
+    if is_closed(coeffs):
+        return mujoco_closed_run(model, coeffs, time=time, delta=delta, timestep=timestep, mj=mj)
     mj = mj if mj is not None else load(model, timestep=timestep)
     nstep = int(round(time / mj.opt.timestep))
     ctrl = controls(model, coeffs, nstep, mj.opt.timestep)
@@ -245,3 +252,156 @@ def mujoco_track(model, freq, amp, *, center=None, time: float, settle: float, c
     if record:
         out.update(angle=angle.T, target=target.T, t=t1)
     return out
+
+
+def _foot_geoms(model, mj) -> np.ndarray:
+    """[ngeom] the leg (``episode.descriptors.legs`` order) of each exported contact sphere of a foot, else -1."""
+    import mujoco
+
+    from cpgjax.episode.descriptors import legs
+
+    feet = legs(model)[1]
+    leg_of = np.full(mj.ngeom, -1)
+    for k, pt in enumerate(model.ct_pt):
+        hit = np.nonzero(feet[:, k])[0]
+        if len(hit):
+            name = f"{model.body_names[model.pt_body[pt]]}_c{k}"
+            gid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_GEOM, name)
+            if gid < 0:
+                raise ValueError(f"the exported model has no contact sphere {name!r} (crosscheck.mjcf)")
+            leg_of[gid] = hit[0]
+    return leg_of
+
+
+def mujoco_observe(model, mj, datas, groups, phase, command, leg_of=None) -> np.ndarray:
+    """[N, n] the observation of a closed-loop controller (:mod:`cpgjax.episode.sensors`) from MuJoCo's state.
+
+    The same readings as ours, each from MuJoCo's own state: the hinges' ``qpos``; roll and pitch from the tracked
+    body's orientation (``qpos`` of its free joint) and their rates from its angular velocity (MuJoCo's free joint
+    gives it in the body's frame); a foot touches when MuJoCo has a contact of one of its spheres (its distance to
+    the ground <= 0: the sphere's surface on or in the ground, where ours tests the vertex, its centre).
+    ``phase`` (sin, cos) [N] and ``command`` [N] as ours.
+    """
+    from cpgjax.episode import sensors
+
+    leg_of = _foot_geoms(model, mj) if leg_of is None else leg_of
+    root = _root_slice(model, mj)
+    parts = {g: [] for g in groups}
+    n_legs = int(leg_of.max()) + 1 if (leg_of >= 0).any() else 0
+    adr = [mj.jnt_qposadr[_joint_id(mj, model.joint_names[j])] for j in model.ctrl_joint]
+    vadr = _root_dof(model, mj)
+    for d in datas:
+        if "angles" in groups:
+            parts["angles"].append(d.qpos[adr])
+        if "tilt" in groups or "rates" in groups:
+            R = quat_to_mat_np(d.qpos[root][3:])
+            ux, uy, uz = R[2, 0], R[2, 1], R[2, 2]
+            wb = d.qvel[vadr + 3: vadr + 6]
+            if "tilt" in groups:
+                parts["tilt"].append([np.arctan2(-ux, uz), np.arctan2(uy, uz)])
+            if "rates" in groups:
+                parts["rates"].append([wb[1], wb[0]])
+        if "contact" in groups:
+            c = np.zeros(n_legs)
+            for i in range(d.ncon):
+                con = d.contact[i]
+                if con.dist <= 0:
+                    for g in (con.geom1, con.geom2):
+                        if leg_of[g] >= 0:
+                            c[leg_of[g]] = 1.0
+            parts["contact"].append(c)
+    N = len(datas)
+    out = []
+    for g in sensors.GROUPS:
+        if g not in groups:
+            continue
+        if g == "phase":
+            out.append(np.stack(phase, 1))
+        elif g == "command":
+            out.append(np.asarray(command, float).reshape(N, 1))
+        elif g == "bias":
+            out.append(np.ones((N, 1)))
+        else:
+            out.append(np.asarray(parts[g], float).reshape(N, -1))
+    return np.concatenate(out, 1)
+
+
+def _joint_id(mj, name: str) -> int:
+    import mujoco
+
+    return mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_JOINT, name)
+
+
+def _root_dof(model, mj) -> int:
+    import mujoco
+
+    bid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, model.body_names[model.track])
+    return int(mj.jnt_dofadr[mj.body_jntadr[bid]])
+
+
+def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_DELTA,
+                      timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False):
+    """Roll out N closed-loop controllers (a :class:`~cpgjax.episode.policy.ClosedLoop`, robots first) in MuJoCo C,
+    one step at a time: each step the observation is computed from MuJoCo's state (:func:`mujoco_observe`), the
+    policy acts on it (numpy, the formulas of :mod:`cpgjax.episode.policy`) and the servo targets go to the position
+    actuators as in :func:`controls`.  Returns (metrics, qpos [N, S, nq], wall); with ``record`` also the
+    observations [N, S - 1, n] (the one each step read, from t = 0).
+    """
+    import mujoco
+
+    from cpgjax.episode import policy as pol
+
+    mj = mj if mj is not None else load(model, timestep=timestep)
+    dt = mj.opt.timestep
+    nstep = int(round(time / dt))
+    fam = controller.family
+    C = np.asarray(controller.coeffs, np.float64)                   # [N, n_ctrl, 2K+1]
+    W = np.asarray(controller.weights, np.float64)                  # [N, out, in]
+    N = C.shape[0]
+    cmd = np.zeros(N) if controller.command is None else np.asarray(controller.command, float).reshape(N)
+    K, f0, n = model.harmonics, model.frequency, model.n_ctrl
+    cj = model.ctrl_joint
+    ratio = np.where(model.j_kp[cj] > 0, model.j_kd[cj] / np.maximum(model.j_kp[cj], 1e-12), 0.0)
+    lim = pol.LIMITS
+    leg_of = _foot_geoms(model, mj)
+    datas = [mujoco.MjData(mj) for _ in range(N)]
+    q0 = initial_qpos(model, mj)
+    for d in datas:
+        d.qpos[:] = q0
+        mujoco.mj_forward(mj, d)
+    qpos = np.zeros((N, nstep + 1, mj.nq))
+    qpos[:, 0] = q0
+    obs_log = [] if record else None
+    phase_d = np.zeros(N)
+    prev = None
+    k = np.arange(1, K + 1)[:, None]                                # [K, 1]
+    w0 = 2 * np.pi * f0
+    t0 = _time.perf_counter()
+    for s in range(nstep):
+        tau = s * dt + phase_d                                      # [N]
+        ang = w0 * k * tau[None]                                    # [K, N]
+        sn, cs = np.sin(ang), np.cos(ang)
+        phase = (sn[0], cs[0]) if K else (np.zeros(N), np.zeros(N))
+        obs = mujoco_observe(model, mj, datas, fam.inputs, phase, cmd, leg_of)
+        if record:
+            obs_log.append(obs)
+        used = prev if (latency and prev is not None) else obs
+        prev = obs
+        u = (W * used[:, None, :]).sum(2)                           # [N, out]
+        off = np.clip(u[:, :n], *lim["offsets"])
+        mf = np.clip(u[:, n], *lim["frequency"])
+        ma = np.clip(u[:, n + 1], *lim["amplitude"])
+        osc = np.einsum("nck,kn->nc", C[:, :, 1::2], sn) + np.einsum("nck,kn->nc", C[:, :, 2::2], cs)
+        dosc = np.einsum("nck,kn->nc", C[:, :, 1::2], w0 * k * cs) - np.einsum("nck,kn->nc", C[:, :, 2::2],
+                                                                              w0 * k * sn)
+        q = C[:, :, 0] + (1.0 + ma)[:, None] * osc + off
+        dq = dosc * ((1.0 + mf) * (1.0 + ma))[:, None]
+        u_act = q + ratio[None] * dq
+        for i, d in enumerate(datas):
+            d.ctrl[:] = u_act[i]
+            mujoco.mj_step(mj, d)
+            qpos[i, s + 1] = d.qpos
+        phase_d = phase_d + dt * mf
+    wall = _time.perf_counter() - t0
+    out = (_metrics(model, mj, qpos, dt, delta), qpos, wall)
+    return out + (np.stack(obs_log, 1),) if record else out

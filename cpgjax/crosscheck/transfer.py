@@ -28,6 +28,7 @@ import numpy as np
 from cpgjax.crosscheck.engines import mujoco_run, spearman, spearman_interval
 from cpgjax.crosscheck.mjcf import load
 from cpgjax.episode.batch import simulate
+from cpgjax.episode.policy import family_from_meta, from_genomes
 from cpgjax.io.results import read_run
 from cpgjax.io.sweepdir import run_files
 from cpgjax.io.wl import parse_wl
@@ -131,6 +132,8 @@ def run_setting(run) -> tuple[str, float | None, str | None]:
         evaluation = SCALES
     if evaluation != "thesis" and falls.get("bristle"):              # a foot stiffened up to 10^D: its own row
         evaluation += f", bristle up to 10^{float(falls['bristle']):g}"
+    if run.meta.get("controller"):                                   # a closed-loop controller family: its own row
+        evaluation += f", {run.meta['controller']}"
     return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
 
 
@@ -193,10 +196,10 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         model = _model(text, str(run.meta.get("model_path", path)), terrain or evolved_on, dt, joint_spring,
                        pipeline or run.pipeline)
         T = float(time or model.time_max)
-        c = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
-        rng = np.random.default_rng([seed, zlib.crc32(c.tobytes())])   # the jitter depends on the controller only
-        C = np.concatenate([c[None], np.clip(c[None] + rng.normal(0, jitter, (replays,) + c.shape), -0.8, 0.8)])
-        C = C.astype(np.float32)
+        g = np.asarray(genome, np.float32)
+        rng = np.random.default_rng([seed, zlib.crc32(g.tobytes())])   # the jitter depends on the controller only
+        G = np.concatenate([g[None], np.clip(g[None] + rng.normal(0, jitter, (replays,) + g.shape), -0.8, 0.8)])
+        C = from_genomes(family_from_meta(run.meta), model, G.astype(np.float32))   # a CPG's, or a closed loop
         ours = simulate(model, C, time=T)
         mj, _, _ = mujoco_run(model, C, time=T, mj=load(model))
         first = lambda r, i: {k: float(np.asarray(r[k])[i]) for k in ("fitness", "speed", "distance")} | {  # noqa: E731

@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.episode.policy import batch_size, is_closed
 from cpgjax.episode.rollout import rollout
 
 # Robots are padded to a multiple of LANES per chunk.  Why: XLA's CPU code computes
@@ -79,7 +80,8 @@ def _chunked(model, inputs, chunk, **kw):
 
 
 def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
-    """Traceable batched evaluation of coeffs [N, n_ctrl, 2K+1] on all local devices.
+    """Traceable batched evaluation of coeffs [N, n_ctrl, 2K+1] (or a :class:`~cpgjax.episode.policy.ClosedLoop`
+    of N controllers, robots first) on all local devices.
 
     Pads N to a multiple of ``devices * chunk`` (repeating the last controller), splits the
     robots across host devices with `shard_map`, and runs `rollout` in chunks on each.
@@ -88,7 +90,7 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
     (``[N]`` for the scores; ``[samples, N]`` for the series of ``stability_series=True``).
     """
     devs = jax.devices() if devices is None else devices
-    N = coeffs.shape[0]
+    N = batch_size(coeffs)
     # Always every device, even for a batch that fits one SIMD vector: a batch on one device ran inline
     # in the caller's program, and XLA then fused the robust evaluation's inputs into it differently from
     # a sharded batch (a sweep's run differed from the same run alone in the last bits).
@@ -97,7 +99,7 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
     ch = chunk_width(model, per_dev, chunk)
     per_dev = -(-per_dev // ch) * ch
     total = per_dev * nd
-    x = (jnp.moveaxis(coeffs, 0, -1), var)  # batch-last
+    x = (jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), coeffs), var)  # batch-last
     if total > N:
         x = jax.tree.map(lambda a: jnp.concatenate([a, jnp.repeat(a[..., -1:], total - N, -1)], -1), x)
     fn = partial(_chunked, model, chunk=ch, **kw)
@@ -113,18 +115,21 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
 def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 256):
     """Host-side convenience: numpy in, numpy out, one compiled program per call signature.
 
-    coeffs: [N, n_ctrl, 2K+1] (or [n_ctrl, 2K+1] for one robot).  With ``record=True``
-    the robots run in one batch on one device and the result has ``traj``.
+    coeffs: [N, n_ctrl, 2K+1] (or [n_ctrl, 2K+1] for one robot), or a
+    :class:`~cpgjax.episode.policy.ClosedLoop` of N controllers (or of one, without the robot axis).  With
+    ``record=True`` the robots run in one batch on one device and the result has ``traj``.
     """
-    c = np.asarray(coeffs, np.float32)
-    single = c.ndim == 2
+    c = jax.tree.map(lambda a: np.asarray(a, np.float32 if np.issubdtype(np.asarray(a).dtype, np.floating)
+                                          else np.asarray(a).dtype), coeffs)
+    single = (c.coeffs if is_closed(c) else c).ndim == 2
     if single:
-        c = c[None]
-    n = c.shape[0]
+        c = jax.tree.map(lambda a: a[None], c)
+    n = batch_size(c)
     if record:
         pad = lanes(model, n) - n
-        c = np.concatenate([c, np.repeat(c[-1:], pad, 0)]) if pad else c
-        f = jax.jit(lambda cc: rollout(model, jnp.moveaxis(cc, 0, -1), time=time, delta=delta, record=True))
+        c = jax.tree.map(lambda a: np.concatenate([a, np.repeat(a[-1:], pad, 0)]), c) if pad else c
+        f = jax.jit(lambda cc: rollout(model, jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), cc), time=time,
+                                       delta=delta, record=True))
         out = jax.tree.map(np.asarray, f(c))
         out = {k: (v[..., :n] if k != "traj" else {kk: (vv[..., :n] if kk != "t" else vv) for kk, vv in v.items()})
                for k, v in out.items()}

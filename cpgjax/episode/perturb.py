@@ -19,7 +19,18 @@ episodes, each with fresh perturbations drawn per robot from its own key:
   friction does not have (docs/simulator.md), and a gait that must work at every stiffness cannot
   live on it;
 * the controller: every gene moved by ``U(-sqrt(3) jitter, sqrt(3) jitter)`` (standard deviation
-  ``jitter``; clipped to the search box).
+  ``jitter``; clipped to the search box);
+* (off by default) the servos' torque limit scaled by ``1 + U(-torque, torque)`` per servo; the ground's stiffness
+  A and damping B (eq. 3.7, where MuJoCo's contact differs from ours) by ``1 + U(-x, x)`` (``stiffness``,
+  ``damping``); the rough field's relief (``relief``): its heights scaled by ``1 - U(0, relief)`` per episode, so
+  that with ``relief=1`` an episode's ground is anywhere from flat to ``roughness`` rough, at a random spot of the
+  field;
+* (closed-loop controllers, :mod:`cpgjax.episode.policy`) the sensors: noise of ``noise`` times each sensor's
+  scale (standard deviation), drawn per robot and step, and a ``latency`` of 0 or 1 step between the observation
+  and the action.
+
+**Domain randomisation** is the named preset :data:`PRESETS` ``domain`` (``--perturb preset=domain``): every range
+above at once, wide (docs/evolution.md); keys given beside it override its values.
 
 A fall (the body tilted past 60 degrees) ends the episode's score (``fall_ends``, on by default), or
 forfeits it (``fall_zero``: the episode scores 0, so the mean over the R episodes is the controller's
@@ -61,6 +72,12 @@ class Perturbations:
     gain: float = 0.1          # relative: each servo's kp, ki, kd
     jitter: float = 1e-3       # rad: sd of the gene jitter
     bristle: float = 0.0       # decades: the friction bristle's k scaled by 10^U(0, bristle)
+    torque: float = 0.0        # relative: each servo's torque limit
+    stiffness: float = 0.0     # relative: the ground's stiffness A (eq. 3.7)
+    damping: float = 0.0       # relative: the ground's damping B (eq. 3.7)
+    relief: float = 0.0        # share: the rough field's heights scaled by 1 - U(0, relief) per episode
+    noise: float = 0.0         # sensor noise, in each sensor's scale (sd; closed-loop controllers)
+    latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -68,18 +85,47 @@ class Perturbations:
     def __post_init__(self) -> None:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
-        for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle"):
+        for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "torque",
+                  "stiffness", "damping", "relief", "noise"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
-        for f in ("friction", "mass", "gain"):
+        for f in ("friction", "mass", "gain", "torque", "stiffness", "damping"):
             if getattr(self, f) >= 1:
                 raise ValueError(f"perturbation {f} is relative and must be < 1, got {getattr(self, f)}")
+        if self.relief > 1:
+            raise ValueError(f"perturbation relief is a share of the roughness and must be <= 1, got {self.relief}")
+        if self.latency not in (0, 1):
+            raise ValueError(f"perturbation latency is 0 or 1 step, got {self.latency}")
         if self.fall_zero and self.fall_survival:
             raise ValueError("fall_zero and fall_survival exclude each other: a fall forfeits the episode or scales it")
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """The ranges as a dict; the ranges added after the first run files were written are left out while off,
+        so that those files' records still equal their ranges (and the runs resume)."""
+        d = dataclasses.asdict(self)
+        return {k: v for k, v in d.items() if not (k in LATER and v == LATER[k])}
+
+    @staticmethod
+    def from_settings(settings: dict | None) -> Perturbations:
+        """The ranges of ``--perturb`` settings: a ``preset`` (:data:`PRESETS`) expanded, the other keys over it."""
+        s = dict(settings or {})
+        name = s.pop("preset", None)
+        if name is not None and name not in PRESETS:
+            raise ValueError(f"unknown perturbation preset {name!r}; expected one of {', '.join(PRESETS)}")
+        return Perturbations(**({**PRESETS[name], **s} if name else s))
+
+
+#: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
+LATER = {"torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0, "latency": 0}
+
+#: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
+#: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the
+#: ground's stiffness and damping +-50 %, the foot's bristle up to 3 decades stiffer, falls scaling the score.
+PRESETS = {
+    "domain": {"roughness": 0.04, "relief": 1.0, "friction": 0.3, "mass": 0.1, "gain": 0.2, "torque": 0.2,
+               "stiffness": 0.5, "damping": 0.5, "bristle": 3.0, "fall_survival": True},
+}
 
 
 def roughened(terrain: Terrain, roughness: float) -> Terrain:
@@ -108,13 +154,28 @@ def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
     u = lambda k, shape, r: jax.lax.optimization_barrier(  # noqa: E731
         r * jax.random.uniform(k, shape, jnp.float32, -1.0, 1.0))
     shift = jnp.stack([u(ks[0], (), SHIFT[0]), u(ks[1], (), SHIFT[1])]) if p.roughness > 0 else jnp.zeros(2)
-    # the bristle's draw has its own key (folded in), so that adding it left every other draw as it was
+    # the bristle's draw has its own key (folded in), so that adding it left every other draw as it was; so have
+    # the later ones (each drawn only when its range is not 0: otherwise the field is None, the model's value)
     decades = 0.5 * p.bristle * (1.0 + u(jax.random.fold_in(key, 8), (), 1.0))
+    more = {}
+    for i, (f, shape) in enumerate((("torque", (model.n_ctrl,)), ("stiffness", ()), ("damping", ()))):
+        if getattr(p, f) > 0:
+            more[f] = 1.0 + u(jax.random.fold_in(key, 9 + i), shape, getattr(p, f))
+    if p.relief > 0 and p.roughness > 0:
+        more["relief"] = 1.0 - 0.5 * p.relief * (1.0 + u(jax.random.fold_in(key, 12), (), 1.0))
     return (Variation(friction=1.0 + u(ks[2], (), p.friction), mass=1.0 + u(ks[3], (model.nb,), p.mass),
                       gain=1.0 + u(ks[4], (model.n_ctrl,), p.gain), shift=shift,
                       lift=u(ks[5], (), p.lift), tilt=u(ks[6], (2,), p.tilt),
-                      bristle=jnp.power(10.0, jax.lax.optimization_barrier(decades))),
+                      bristle=jnp.power(10.0, jax.lax.optimization_barrier(decades)), **more),
             u(ks[7], (n_genes,), float(np.sqrt(3.0)) * p.jitter))
+
+
+NOISE_STREAM = 13   # folded into a robot's key: the key of its sensor noise (the draws above use 0..12)
+
+
+def noise_key(keys: jax.Array) -> jax.Array:
+    """[N, 2] uint32: the raw key of each robot's sensor noise, from its episode's key [N]."""
+    return jax.vmap(lambda k: jax.random.key_data(jax.random.fold_in(k, NOISE_STREAM)))(keys)
 
 
 def draw(model, p: Perturbations, keys: jax.Array, n_genes: int) -> tuple[Variation, jax.Array]:

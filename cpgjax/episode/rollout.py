@@ -15,14 +15,16 @@ import jax
 import jax.numpy as jnp
 
 from cpgjax.episode import descriptors as bd
+from cpgjax.episode import policy as pol
+from cpgjax.episode import sensors
 from cpgjax.episode.cpg import targets
 from cpgjax.episode.fitness import stability
 from cpgjax.episode.support import projection_stability
+from cpgjax.sim.contact import terrain_under
 from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.pipeline import step
 from cpgjax.sim.rotation import quat_to_mat
 from cpgjax.sim.state import State, initial_state, point_kinematics, sim_time, varied_initial_state
-from cpgjax.sim.terrain import height_and_normal
 
 LIMIT_POS = 1.0e3  # m
 LIMIT_VEL = 1.0e3  # m/s, rad/s
@@ -72,19 +74,24 @@ def probe(model, s: State, R, p, var, delta):
         m = m * var.mass
     cm = jnp.sum(m * s.x, axis=1) / jnp.sum(m, axis=0)            # [3, B]
     cp = p[:, model.ct_pt]                                         # [3, nc, B]
-    sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
     if model.terrain.flat:
         zc, zcm = jnp.zeros_like(cp[2]), jnp.zeros_like(cm[2])
     else:
-        zc, _ = height_and_normal(model.terrain, cp[0] + sx, cp[1] + sy)
-        zcm, _ = height_and_normal(model.terrain, cm[0] + sx, cm[1] + sy)
+        zc, _ = terrain_under(model, cp[0], cp[1], var)
+        zcm, _ = terrain_under(model, cm[0], cm[1], var)
     proj, n_down = projection_stability(cp[0], cp[1], zc - cp[2] > 0, (cm[0], cm[1], cm[2] - zcm))
     return stability(_up_cos(model, s.q), delta), proj, n_down
 
 
 def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None, forward=1, var=None,
-            fall_ends=False, stability_series=False, descriptors=False):
+            fall_ends=False, stability_series=False, descriptors=False, latency=0, noise=0.0):
     """Run B robots with CPG coefficients [n_ctrl, 2K+1, B]; returns a dict of [B] arrays.
+
+    ``coeffs`` may instead be a batch-last :class:`~cpgjax.episode.policy.ClosedLoop` (the CPG modulated by a
+    policy that reads the robot's sensors every step, :mod:`cpgjax.episode.policy`); its CPG phase offset is
+    integrated in the scan.  ``latency`` (0 or 1 step): its action uses the observation of the step before;
+    ``noise``: sensor noise of that many of each sensor's scale (standard deviation), drawn per robot and step from
+    the controller's ``key`` (:func:`cpgjax.episode.sensors.noise`).
 
     Keys: fitness (eq. 4.6, mean of eq. 4.5), distance (forward, m), speed (distance/T),
     tilt (mean body angle from vertical, rad), fallen (body normal ever pointed down),
@@ -96,7 +103,9 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     divided by the whole episode's length); ``down`` says which robots fell so (always False without it)
     and ``up`` the share of the episode before the fall (1 without one).
     With ``record=True`` also ``traj``: x, q [S, ., nb, B], angle, target [S, n, B], t [S], with
-    S = samples + 1: t = 0, 1/LogRate, ..., T.
+    S = samples + 1: t = 0, 1/LogRate, ..., T; for a closed loop also the last step's ``obs`` [S, in, B] (the
+    observation it read), its action ``offsets`` [S, n_ctrl, B], ``frequency`` and ``amplitude`` [S, B] and the
+    phase offset ``phase`` [S, B] (at t = 0: the first step's).
     With ``stability_series=True`` (thesis Ch. 6.4, :func:`probe`) also, computed in the scan at every
     log sample: ``S`` and ``proj`` [samples, B] (vestibular and projection stability, NaN where the
     latter is undefined), ``S_mean``, ``proj_mean`` (over the defined samples; NaN if none), ``proj_min``
@@ -107,26 +116,61 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     """
     inner, outer = schedule(model, time, log_rate)
     T = inner * outer * model.dt
+    closed = pol.is_closed(coeffs)
+    policy = coeffs if closed else None
+    if closed:
+        coeffs = policy.coeffs
+        if noise and policy.key is None:
+            raise ValueError("sensor noise needs a key per robot (ClosedLoop.key)")
     B = coeffs.shape[-1]
     s0 = initial_state(model, B, coeffs.dtype) if var is None else varied_initial_state(model, var, coeffs.dtype)
     K, f0, dt = model.harmonics, model.frequency, model.dt
     fwd = forward
 
+    def sense(s, b):
+        """The observation [in, B] of state ``s`` at the CPG's basis ``b`` (noise added)."""
+        phase = (b[1], b[2]) if K else (jnp.zeros((B,), coeffs.dtype),) * 2
+        obs = sensors.observe(model, policy.family.inputs, s, var, phase, policy.command)
+        if noise:
+            amp = noise * sensors.noise_scale(model, policy.family.inputs)
+            # kept apart from the sum (cf. episode.perturb._one): the same bits in every program
+            obs = obs + jax.lax.optimization_barrier(sensors.noise(policy.key, s.n, amp))
+        return obs
+
+    def closed_ctrl(s, cl):
+        """The servo targets of the closed loop at ``s``, the action's frequency modulation and the new memory."""
+        b, db = pol.phase_basis(sim_time(model, s), cl["d"], K, f0)
+        obs = sense(s, b)
+        off, mf, ma = pol.act(policy.family, model, policy.weights, cl["obs"] if latency else obs)
+        ctrl = pol.modulated_targets(coeffs, b, db, off, mf, ma)
+        return ctrl, mf, {"d": cl["d"], "obs": obs, "target": ctrl[0], "action": (off, mf, ma)}
+
     def inner_body(carry, _):
-        s, fit = carry
-        ctrl = targets(coeffs, sim_time(model, s), K, f0)
+        s, fit, cl = carry
+        if closed:
+            ctrl, mf, cl = closed_ctrl(s, cl)
+        else:
+            ctrl = targets(coeffs, sim_time(model, s), K, f0)
         s = step(model, s, ctrl, var)
+        if closed:
+            cl["d"] = cl["d"] + dt * mf
         vy = s.v[fwd, model.track]
         fit = fit + vy * stability(_up_cos(model, s.q), delta)
-        return (s, fit), None
+        return (s, fit, cl), None
 
     def outer_body(carry, _):
         s, acc = carry
+        if closed:
+            acc, cl = acc
+        else:
+            cl = None
         prev = acc
         zero = jnp.zeros((B,), coeffs.dtype)
-        (s_new, fit), _ = jax.lax.scan(inner_body, (s, zero), None, length=inner)
+        (s_new, fit, cl_new), _ = jax.lax.scan(inner_body, (s, zero, cl), None, length=inner)
         ok = _healthy(s_new) & ~acc["diverged"]
         s_new = _keep(ok, s_new, s)
+        if closed:
+            cl_new = _keep(ok, cl_new, cl)
         R = quat_to_mat(s_new.q)
         _, p, _ = point_kinematics(model, s_new, R)
         zero = jnp.zeros((B,), coeffs.dtype)
@@ -134,8 +178,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         if model.terrain.flat:
             depth = (-p[2, model.ct_pt]).max(0, initial=0.0)
         else:
-            sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
-            zg, _ = height_and_normal(model.terrain, p[0, model.ct_pt] + sx, p[1, model.ct_pt] + sy)
+            zg, _ = terrain_under(model, p[0, model.ct_pt], p[1, model.ct_pt], var)
             depth = (zg - p[2, model.ct_pt]).max(0, initial=0.0) + zero
         cosu = _up_cos(model, s_new.q)
         down = acc["down"] | (fall_ends & (cosu < math.cos(FALL_TILT)))
@@ -150,7 +193,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             "pivot_err": jnp.maximum(acc["pivot_err"], jnp.where(ok, piv, 0.0)),
             "depth": jnp.maximum(acc["depth"], jnp.where(ok, depth, 0.0)),
         }
-        out = sample(s_new, R) if record else None
+        out = sample(s_new, R, cl_new) if record else None
         if stability_series:
             S_t, proj_t, _ = probe(model, s_new, R, p, var, delta)
             defined = jnp.isfinite(proj_t)
@@ -164,13 +207,24 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             else:
                 touching = zg - p[2, model.ct_pt] > 0
             acc["bd"] = bd.update(prev["bd"], feet, touching, bd.heading(model, R), s_new.x[:2, model.track])
-        return (s_new, acc), out
+        return (s_new, (acc, cl_new) if closed else acc), out
 
-    def sample(s, R):
+    def sample(s, R, cl=None):
         angle, _, _ = joint_angles(model, R, s.w)
         t = sim_time(model, s)
-        tgt, _ = targets(coeffs, t, K, f0)
-        return {"x": s.x, "q": s.q, "v": s.v, "w": s.w, "angle": angle, "target": tgt, "t": t}
+        if not closed:
+            tgt, _ = targets(coeffs, t, K, f0)
+            return {"x": s.x, "q": s.q, "v": s.v, "w": s.w, "angle": angle, "target": tgt, "t": t}
+        # the closed loop: the target, observation and action of the sample's last step (at t = 0: the first step's)
+        off, mf, ma = cl["action"]
+        return {"x": s.x, "q": s.q, "v": s.v, "w": s.w, "angle": angle, "target": cl["target"], "t": t,
+                "obs": cl["obs"], "offsets": off, "frequency": mf, "amplitude": ma, "phase": cl["d"]}
+
+    if closed:   # the memory of the loop: the phase offset d, the last observation, target and action
+        _, _, cl0 = closed_ctrl(s0, {"d": jnp.zeros((B,), coeffs.dtype),
+                                     "obs": jnp.zeros((policy.family.n_in(model), B), coeffs.dtype)})
+        if latency:   # the first step has no step before: it uses the initial state's observation
+            _, _, cl0 = closed_ctrl(s0, cl0)
 
     z = jnp.zeros((B,), coeffs.dtype)
     acc0 = {"fit": z, "tilt": z, "height": z, "fallen": z < 0, "diverged": z < 0, "pivot_err": z, "depth": z,
@@ -180,7 +234,9 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     if descriptors:
         feet = bd.legs(model)[1]
         acc0["bd"] = bd.init(model, s0.x, quat_to_mat(s0.q), feet.shape[0])
-    (s_end, acc), traj = jax.lax.scan(outer_body, (s0, acc0), None, length=outer)
+    (s_end, acc), traj = jax.lax.scan(outer_body, (s0, (acc0, cl0) if closed else acc0), None, length=outer)
+    if closed:
+        acc, _ = acc
     if stability_series:
         traj, series = traj
     dist = s_end.x[fwd, model.track] - s0.x[fwd, model.track]
@@ -207,5 +263,6 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         d = bd.finish(acc["bd"], outer, T)
         res.update(duty=d["duty"], heading_speed=d["speed"], turn=d["turn"])
     if record:   # the first sample is the initial state, at t = 0
-        res["traj"] = jax.tree.map(lambda a0, a: jnp.concatenate([a0[None], a]), sample(s0, quat_to_mat(s0.q)), traj)
+        first = sample(s0, quat_to_mat(s0.q), cl0 if closed else None)
+        res["traj"] = jax.tree.map(lambda a0, a: jnp.concatenate([a0[None], a]), first, traj)
     return res

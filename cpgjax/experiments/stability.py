@@ -29,6 +29,7 @@ import numpy as np
 from cpgjax.episode.batch import LANES, evaluate, simulate
 from cpgjax.episode.courses import Condition, conditions, course, placement
 from cpgjax.episode.fitness import DEFAULT_DELTA, stability
+from cpgjax.episode.policy import batch_size, family_from_meta, from_genomes, is_closed, table_fields
 from cpgjax.episode.rollout import FALL_TILT, schedule
 from cpgjax.sim.variation import Variation
 
@@ -131,33 +132,34 @@ def run_course(model, coeffs: np.ndarray, lane: np.ndarray, conds: list[Conditio
     reach = (float(model.x0[1].max()) - start_y, start_y - float(model.x0[1].min()))
     shift, lift, y_range = placement(conds, lane, flat_distance, start_y, bump_y, cfg.bump_width, reach)
     cm = model.replace(terrain=course(conds, y_range, bump_y, cfg.bump_width))
-    N = coeffs.shape[0]
+    N = batch_size(coeffs)
     block = max(LANES, min(cfg.block, -(-N // LANES) * LANES))
     total = -(-N // block) * block
     pad = lambda a: np.concatenate([a, np.repeat(a[..., -1:], total - N, -1)], -1) if total > N else a  # noqa: E731
-    C = pad(np.moveaxis(np.asarray(coeffs, np.float32), 0, -1))
+    C = jax.tree.map(lambda a: pad(np.moveaxis(np.asarray(a), 0, -1)), coeffs)
     shift, lift = pad(shift), pad(lift)
     fn = _runner(cm, cfg.time, cfg.delta)
     parts = []
     for b in tqdm(range(0, total, block), desc="stability", unit="block", disable=not progress):
         var = Variation.nominal(cm, block)._replace(shift=jnp.asarray(shift[:, b:b + block]),
                                                     lift=jnp.asarray(lift[b:b + block]))
-        out = fn(jnp.asarray(np.moveaxis(C[..., b:b + block], -1, 0)), var)
+        out = fn(jax.tree.map(lambda a, b=b: jnp.asarray(np.moveaxis(a[..., b:b + block], -1, 0)), C), var)
         parts.append(jax.tree.map(np.asarray, out))
     return {k: np.concatenate([p[k] for p in parts], -1)[..., :N] for k in parts[0]}
 
 
 def perturbation_experiment(model, coeffs: np.ndarray, names: list[str], cfg: StabilityConfig = StabilityConfig(),
                             *, progress: bool = False) -> StabilityResult:
-    """Controllers [C, n, 2K+1] on flat ground, bumps and rough fields, all in one batch (Figs. 6.13-6.21)."""
-    coeffs = np.asarray(coeffs, np.float32)
-    C = coeffs.shape[0]
+    """Controllers [C, n, 2K+1] (or a :class:`~cpgjax.episode.policy.ClosedLoop` of C) on flat ground, bumps and
+    rough fields, all in one batch (Figs. 6.13-6.21)."""
+    coeffs = coeffs if is_closed(coeffs) else np.asarray(coeffs, np.float32)
+    C = batch_size(coeffs)
     conds = conditions(cfg.bumps, cfg.roughs, cfg.seeds)
     K = len(conds)
     ci, lane = np.meshgrid(np.arange(C), np.arange(K), indexing="ij")
     ci, lane = ci.ravel(), lane.ravel()
     if K == 1:      # flat ground only (Fig. 6.19): the model's own ground, nothing to place
-        r = jax.tree.map(np.asarray, _runner(model, cfg.time, cfg.delta)(jnp.asarray(coeffs), None))
+        r = jax.tree.map(np.asarray, _runner(model, cfg.time, cfg.delta)(jax.tree.map(jnp.asarray, coeffs), None))
         flat = r
     else:
         flat = simulate(model, coeffs, time=cfg.time, delta=cfg.delta)
@@ -216,7 +218,7 @@ class PopulationStudy:
     S_mean: list[np.ndarray]       # per cell [runs, groups]
     controllers: int               # controllers scored per run
     config: dict = field(default_factory=dict)
-    picks: dict = field(default_factory=dict)   # the thesis's pair (choose_stable_unstable): coeffs and scores
+    picks: dict = field(default_factory=dict)   # the thesis's pair (choose_stable_unstable): coeffs, policy, scores
     fall_time: list[np.ndarray] = field(default_factory=list)  # per cell [runs, groups]: mean time to fall, s
 
     def summary(self) -> dict:
@@ -314,7 +316,10 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
             runs.append(r)
     picked = [controllers_of(r, which, top) for r in runs]
     n = min(len(g) for g, _ in picked)
-    coeffs = np.concatenate([g[:n] for g, _ in picked]).reshape(-1, model.n_ctrl, model.n_coeff).astype(np.float32)
+    families = {family_from_meta(r.meta) for r in runs}
+    if len(families) > 1:
+        raise ValueError("runs of different controller families: study one family at a time")
+    coeffs = from_genomes(families.pop(), model, np.concatenate([g[:n] for g, _ in picked]).astype(np.float32))
     fitness = np.concatenate([f[:n] for _, f in picked])
     cfg = StabilityConfig(**{**asdict(cfg), "time": cfg.time if cfg.time is not None else time})
     res = perturbation_experiment(model, coeffs, [f"r{i}c{j}" for i in range(len(runs)) for j in range(n)], cfg,
@@ -333,7 +338,10 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
         out_t.append(tf_g[i:i + k])
         i += k
     stable, unstable = choose_stable_unstable(fitness, res.S_mean[:, 0], res.fell.any(axis=1))
-    picks = {name: {"coeffs": coeffs[i], "ga_fitness": float(fitness[i]), "run": runs[i // n].path,
+    one = lambda i: jax.tree.map(lambda a: np.asarray(a)[i], coeffs)  # noqa: E731
+    picks = {name: {"coeffs": one(i).coeffs if is_closed(coeffs) else one(i),
+                    "policy": table_fields(one(i), model) if is_closed(coeffs) else None,
+                    "ga_fitness": float(fitness[i]), "run": runs[i // n].path,
                     "S_flat": float(res.S_mean[i, 0]), "fell": {g: float(res.fell[i, ks].mean()) for g, ks in groups}}
              for name, i in (("stable", stable), ("unstable", unstable))}
     return PopulationStudy(labels=[c.label() for c in cells], configs=[c.config for c in cells],

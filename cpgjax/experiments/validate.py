@@ -30,6 +30,7 @@ import numpy as np
 
 from cpgjax.crosscheck.transfer import run_setting
 from cpgjax.episode.perturb import Perturbations
+from cpgjax.episode.policy import Family, family_from_meta
 from cpgjax.io.results import ResultsError, Run
 from cpgjax.io.wl import parse_wl
 from cpgjax.optim.factory import robust_problem
@@ -107,10 +108,11 @@ def perturbations(run: Run, episodes: int) -> Perturbations:
 
 
 @functools.lru_cache(maxsize=8)
-def _scorer(text: str, path: str, terrain, T: float, delta: float, p: Perturbations, pipeline: str = "springs"):
+def _scorer(text: str, path: str, terrain, T: float, delta: float, p: Perturbations, pipeline: str = "springs",
+            family: Family | None = None):
     """One jitted robust evaluation per model and validation (a sweep's runs share one compilation)."""
     model = build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline)
-    return jax.jit(robust_problem(path, model, p, T=T, delta=delta).evaluate)
+    return jax.jit(robust_problem(path, model, p, T=T, delta=delta, family=family).evaluate)
 
 
 def validate(run: Run, v: Validation = Validation(), pipeline: str | None = None) -> Champion:
@@ -127,7 +129,7 @@ def validate(run: Run, v: Validation = Validation(), pipeline: str | None = None
         raise ResultsError(f"{run.path}: the run records no episode length")
     where, genomes, recorded = candidates(run, v.candidates)
     score = _scorer(text, str(run.meta.get("model_path", run.path)), terrain, float(time),
-                    float(run.meta.get("delta", 8.0)), p, pipeline or run.pipeline)
+                    float(run.meta.get("delta", 8.0)), p, pipeline or run.pipeline, family_from_meta(run.meta))
     key = jax.random.fold_in(jax.random.key(v.seed), VALIDATION_STREAM)
     keys = jnp.repeat(key[None], len(genomes), axis=0)     # common random numbers: the same episodes for each
     scores = np.asarray(score(jnp.asarray(genomes, jnp.float32), keys)["fitness"], np.float64)

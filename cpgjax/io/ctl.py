@@ -13,6 +13,16 @@ Each DOF line holds the 2K+1 coefficients of (thesis Ch. 2.2.1, SPEC §5)
 the genetic algorithm is the coefficient matrix flattened row by row
 (:func:`coeffs_to_genome`, :func:`genome_to_coeffs`).
 
+A closed-loop controller (:mod:`cpgjax.episode.policy`) adds its policy after the DOF lines::
+
+    Policy pmtg                                         <- the controller family
+    Inputs angles 8 tilt 2 rates 2 contact 4 phase 2 command 1 bias 1    <- the observation's groups, sizes
+    Outputs offsets 8 frequency 1 amplitude 1           <- the action's groups, sizes
+    0.0  0.12  ...                                      <- one line of weights per output, one number per input
+
+(:class:`PolicyTable`; the words are case-insensitive).  A file without a ``Policy`` line is the thesis's
+open-loop CPG.
+
 Errors raise :class:`cpgjax.errors.DescriptionError` (``path:line: message``).
 """
 
@@ -29,10 +39,26 @@ import numpy as np
 from cpgjax.io.textfile import read_text
 from cpgjax.sim.description import DescriptionError
 
-__all__ = ["Control", "parse_ctl", "read_ctl", "format_ctl", "write_ctl", "genome_to_coeffs",
+__all__ = ["Control", "PolicyTable", "parse_ctl", "read_ctl", "format_ctl", "write_ctl", "genome_to_coeffs",
            "coeffs_to_genome"]
 
 _NUM_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z")
+
+
+@dataclass
+class PolicyTable:
+    """A closed-loop controller's policy as its `.ctl` file writes it.
+
+    name: the family (``pmtg``); inputs, outputs: ``(group, size)`` pairs in file order; weights:
+    ``[sum of output sizes, sum of input sizes]`` float64; line: the line of the ``Policy`` statement (for errors
+    found later, against a model).
+    """
+
+    name: str
+    inputs: tuple[tuple[str, int], ...]
+    outputs: tuple[tuple[str, int], ...]
+    weights: np.ndarray
+    line: int = 0
 
 
 @dataclass
@@ -42,11 +68,13 @@ class Control:
     fitness: the first line of the file (the episode fitness, eq. 4.6; 0 if never evaluated).
     coeffs: ``[n_dof, 2K+1]`` float64, row ``i`` = ``c0 a1 b1 ... aK bK`` of controlled DOF ``i``.
     path: where it was read from (``"<string>"`` for text).
+    policy: the policy of a closed-loop controller (None: the thesis's open-loop CPG).
     """
 
     fitness: float
     coeffs: np.ndarray
     path: str = "<string>"
+    policy: PolicyTable | None = None
 
     @property
     def n_dof(self) -> int:
@@ -88,12 +116,16 @@ def parse_ctl(text: str, path: str = "<string>", n_dof: int | None = None,
     file's controlled joints and ``Harmonics``).
     """
     rows: list[tuple[int, list[float]]] = []
+    policy_lines: list[tuple[int, list[str]]] = []
     last_line = 1
     for n, raw in enumerate(text.removeprefix("\ufeff").splitlines(), start=1):
         toks = raw.split("#", 1)[0].split()
         if not toks:
             continue
         last_line = n
+        if policy_lines or toks[0].lower() == "policy":
+            policy_lines.append((n, toks))
+            continue
         rows.append((n, [_number(t, path, n) for t in toks]))
     n_coef = None if harmonics is None else 2 * harmonics + 1
     if not rows:
@@ -120,7 +152,62 @@ def parse_ctl(text: str, path: str = "<string>", n_dof: int | None = None,
         raise DescriptionError(path, line, f"expected {_expected(n_dof, want)}, found {len(dofs)} DOF "
                                            f"line{'s' if len(dofs) != 1 else ''}")
     coeffs = np.array([vals for _, vals in dofs], dtype=np.float64)
-    return Control(fitness=float(fit[0]), coeffs=coeffs, path=path)
+    policy = _parse_policy(policy_lines, path) if policy_lines else None
+    return Control(fitness=float(fit[0]), coeffs=coeffs, path=path, policy=policy)
+
+
+_GROUP_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+def _groups(toks: list[str], path: str, line: int, what: str) -> tuple[tuple[str, int], ...]:
+    """``NAME SIZE NAME SIZE ...`` of an ``Inputs`` / ``Outputs`` line."""
+    body = toks[1:]
+    if not body or len(body) % 2:
+        raise DescriptionError(path, line, f"{what} lists its groups as NAME SIZE pairs (e.g. {what} tilt 2 bias 1); "
+                                           f"found {len(body)} word{'s' if len(body) != 1 else ''}")
+    out = []
+    for name, size in zip(body[::2], body[1::2], strict=True):
+        if not _GROUP_RE.match(name):
+            raise DescriptionError(path, line, f"{what}: {name!r} is not a group name")
+        if not size.isdigit() or int(size) < 1:
+            raise DescriptionError(path, line, f"{what}: the size of {name} must be a whole number >= 1, got {size!r}")
+        out.append((name.lower(), int(size)))
+    if len({n for n, _ in out}) != len(out):
+        raise DescriptionError(path, line, f"{what}: a group is named twice")
+    return tuple(out)
+
+
+def _parse_policy(lines: list[tuple[int, list[str]]], path: str) -> PolicyTable:
+    """The ``Policy`` section: ``Policy NAME``, ``Inputs ...``, ``Outputs ...``, then one line of weights per output."""
+    line, toks = lines[0]
+    if len(toks) != 2 or not _GROUP_RE.match(toks[1]):
+        raise DescriptionError(path, line, "expected 'Policy NAME' (the controller family, e.g. Policy pmtg)")
+    name = toks[1].lower()
+    heads: dict[str, tuple[tuple[str, int], ...]] = {}
+    rest = lines[1:]
+    for word in ("inputs", "outputs"):
+        if not rest or rest[0][1][0].lower() != word:
+            at = rest[0][0] if rest else line
+            raise DescriptionError(path, at, f"expected the policy's '{word.capitalize()} NAME SIZE ...' line after "
+                                             f"'{'Policy ' + name if word == 'inputs' else 'Inputs ...'}'")
+        heads[word] = _groups(rest[0][1], path, rest[0][0], word.capitalize())
+        rest = rest[1:]
+    n_in = sum(n for _, n in heads["inputs"])
+    n_out = sum(n for _, n in heads["outputs"])
+    weights = []
+    for at, toks in rest:
+        if toks[0].lower() in ("policy", "inputs", "outputs"):
+            raise DescriptionError(path, at, f"a second '{toks[0]}' line: a controller has one policy")
+        vals = [_number(t, path, at) for t in toks]
+        if len(vals) != n_in:
+            raise DescriptionError(path, at, f"a line of policy weights has one number per input ({n_in}); found "
+                                             f"{len(vals)}")
+        weights.append(vals)
+    if len(weights) != n_out:
+        at = rest[n_out][0] if len(rest) > n_out else (rest[-1][0] if rest else line)
+        raise DescriptionError(path, at, f"expected {n_out} lines of policy weights (one per output), found "
+                                         f"{len(weights)}")
+    return PolicyTable(name, heads["inputs"], heads["outputs"], np.array(weights, np.float64), line)
 
 
 def read_ctl(path: str | os.PathLike[str], n_dof: int | None = None, harmonics: int | None = None) -> Control:
@@ -142,7 +229,7 @@ def _exact(v: float) -> str:
     return np.format_float_positional(np.float32(v), unique=True, trim="0") if v != 0 else "0.0"
 
 
-def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False) -> str:
+def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False, policy: PolicyTable | None = None) -> str:
     """The `.ctl` text: numbers separated by two spaces, one DOF per line (thesis example).
 
     The fitness is written ``%.6f``; the coefficients too by default (the thesis's 6 decimals).
@@ -158,12 +245,23 @@ def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False) -> str:
         raise ValueError("coefficients and fitness must be finite to be written to a .ctl file")
     fmt = _exact if exact else _f6
     lines = [_f6(fitness)] + ["  ".join(fmt(v) for v in row) for row in c]
+    if policy is not None:
+        w = np.asarray(policy.weights, np.float64)
+        n_in, n_out = sum(n for _, n in policy.inputs), sum(n for _, n in policy.outputs)
+        if w.shape != (n_out, n_in) or not np.all(np.isfinite(w)):
+            raise ValueError(f"policy weights must be finite, [{n_out}, {n_in}], got shape {w.shape}")
+        cols = " ".join(f"{g}[{n}]" for g, n in policy.inputs)
+        lines += [f"Policy {policy.name}", "Inputs " + " ".join(f"{g} {n}" for g, n in policy.inputs),
+                  "Outputs " + " ".join(f"{g} {n}" for g, n in policy.outputs),
+                  f"# one line per output ({', '.join(f'{g}[{n}]' for g, n in policy.outputs)}); columns: {cols}"]
+        lines += ["  ".join(fmt(v) for v in row) for row in w]
     return "\n".join(lines) + "\n"
 
 
-def write_ctl(path: str | os.PathLike[str], coeffs: Any, fitness: float = 0.0, exact: bool = False) -> None:
+def write_ctl(path: str | os.PathLike[str], coeffs: Any, fitness: float = 0.0, exact: bool = False,
+              policy: PolicyTable | None = None) -> None:
     """Write a `.ctl` file (see :func:`format_ctl`); 6 decimals as in the thesis, or ``exact`` float32 digits."""
-    text = format_ctl(coeffs, fitness, exact=exact)
+    text = format_ctl(coeffs, fitness, exact=exact, policy=policy)
     with open(os.fspath(path), "w", encoding="utf-8") as f:
         f.write(text)
 

@@ -18,7 +18,9 @@ import numpy as np
 from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
-from cpgjax.episode.perturb import Perturbations, draw, roughened
+from cpgjax.episode.perturb import Perturbations, draw, noise_key, roughened
+from cpgjax.episode.policy import Family, from_control, from_genomes, from_table, parse_controller, to_genome
+from cpgjax.episode.policy import base_genome as policy_base
 from cpgjax.io.wl import load_model
 from cpgjax.optim.analytic import analytic_problem
 from cpgjax.optim.problem import Problem
@@ -29,7 +31,7 @@ EVALUATIONS = ("thesis", "robust")
 def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float | None = None, replicas: int | None = None, chunk: int | None = None,
                  evaluation: str | None = None, perturb: dict | None = None, pipeline: str | None = None,
-                 start: str | None = None) -> Problem:
+                 start: str | None = None, controller: str | None = None) -> Problem:
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
 
     ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
@@ -41,19 +43,25 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
     springs); the one the model runs on is recorded in the meta (``pipeline``), so that a resume cannot change it.
     ``start``: a `.ctl` controller the search starts from instead of the thesis's sinusoids (the problem's base
     genome; the GA moves each of its genes by its initial spread); recorded in the meta (``start``).
+    ``controller``: the controller family (:func:`cpgjax.episode.policy.parse_controller`: ``cpg``, the thesis's
+    open-loop CPG, the default; ``pmtg``: the CPG modulated by a feedback policy), recorded in the meta
+    (``controller``) when not the CPG.
     """
     evaluation = evaluation or "thesis"
     if evaluation not in EVALUATIONS:
         raise ValueError(f"evaluation must be one of {', '.join(EVALUATIONS)}, got {evaluation!r}")
     if perturb and evaluation != "robust":
         raise ValueError("perturbation ranges apply to the robust evaluation only (add --evaluation robust)")
-    robust = Perturbations(**(perturb or {})) if evaluation == "robust" else None
+    robust = Perturbations.from_settings(perturb) if evaluation == "robust" else None
+    family = parse_controller(controller)
     if model.startswith("analytic:"):
         if pipeline is not None:
             raise ValueError(f"{model}: a physics pipeline applies to a simulated model (.wl) only")
+        if family is not None:
+            raise ValueError(f"{model}: a closed-loop controller needs a simulated model (.wl)")
         problem = analytic_problem(model)
     else:
-        kw: dict = {"time": time, "terrain": terrain, "pipeline": pipeline}
+        kw: dict = {"time": time, "terrain": terrain, "pipeline": pipeline, "family": family}
         for k, v in (("delta", delta), ("replicas", replicas), ("chunk", chunk), ("robust", robust)):
             if v is not None:
                 kw[k] = v
@@ -62,6 +70,8 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
         raise ValueError(f"{model}: the robust evaluation needs a simulated model (.wl)")
     cli = {"time": time, "terrain": terrain, "delta": delta, "replicas": replicas, "evaluation": evaluation,
            "perturb": perturb or None, "pipeline": pipeline, "start": start}
+    if controller is not None:
+        cli["controller"] = controller
     meta = {**problem.meta, "cli_problem_args": json.dumps(cli)}
     if start is not None:
         base = start_genome(start, problem)
@@ -80,14 +90,27 @@ def start_genome(path: str, problem: Problem) -> np.ndarray:
         raise ValueError(f"--start {path}: a starting controller needs a simulated model (.wl)")
     c = read_ctl(path, n_dof=int(n_dof), harmonics=int(harmonics))
     g = np.asarray(c.coeffs, np.float32).reshape(-1)
+    if problem.n_genes > g.size:        # a closed-loop problem: the controller's policy, else a policy of zeros
+        model = load_model(problem.meta["model_path"], pipeline=problem.meta.get("pipeline"))
+        family = parse_controller(problem.meta.get("controller"))
+        if c.policy is not None:
+            g = to_genome(from_control(c, model), model)
+            if g.size != problem.n_genes or from_table(c.policy, model, c.path) != family:
+                raise ValueError(f"--start {path}: its policy ({c.policy.name}) is not this run's "
+                                 f"--controller {family.spec}")
+        else:
+            g = np.concatenate([g, np.zeros(problem.n_genes - g.size, np.float32)])
+    elif c.policy is not None:
+        raise ValueError(f"--start {path}: a closed-loop controller; add --controller {c.policy.name}")
     return np.clip(g, problem.lower, problem.upper)
 
 
 def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float = DEFAULT_DELTA, chunk: int = 256, dt: float | None = None,
                  replicas: int = 1, jitter: float = 1e-3, robust: Perturbations | None = None,
-                 pipeline: str | None = None):
-    """A GA Problem for a `.wl` model: genome = CPG coefficients of every controlled joint.
+                 pipeline: str | None = None, family: Family | None = None):
+    """A GA Problem for a `.wl` model: genome = CPG coefficients of every controlled joint (and with a closed-loop
+    ``family``, the policy's genes after them: :mod:`cpgjax.episode.policy`).
 
     ``replicas > 1`` scores each genome as the mean over that many episodes, the first
     with the genome itself and the others with every gene moved by a fixed pseudo-random
@@ -104,11 +127,12 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     model's (``pipeline``).
     """
     model = load_model(wl_path, dt=dt, terrain=terrain, pipeline=pipeline)
-    n_ctrl, n_coeff = model.n_ctrl, model.n_coeff
+    n_ctrl = model.n_ctrl
     T = model.time_max if time is None else float(time)
+    G = model.n_genes if family is None else family.n_genes(model)
 
     R = max(int(replicas), 1)
-    offsets = np.random.default_rng(12345).normal(0.0, jitter, (R, model.n_genes)).astype(np.float32)
+    offsets = np.random.default_rng(12345).normal(0.0, jitter, (R, G)).astype(np.float32)
     offsets[0] = 0.0
     keys = ("fitness", "diverged", "distance", "speed", "tilt", "fallen")
 
@@ -117,7 +141,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
         n = g.shape[0]
         if R > 1:
             g = jnp.clip(g[:, None, :] + offsets[None], -0.8, 0.8).reshape(n * R, -1)
-        r = evaluate(model, g.reshape(-1, n_ctrl, n_coeff), time=T, delta=delta, chunk=chunk)
+        r = evaluate(model, controllers(family, model, g), time=T, delta=delta, chunk=chunk)
         out = {k: r[k] for k in keys}
         if R > 1:
             out = {k: (v.reshape(n, R).any(1) if v.dtype == jnp.bool_ else v.reshape(n, R).mean(1))
@@ -128,7 +152,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
         if replicas != 1:
             raise ValueError("replicas (fixed jitter offsets) and the robust evaluation cannot be combined; "
                              "the robust evaluation has its own replicas")
-        return robust_problem(wl_path, model, robust, T=T, delta=delta, chunk=chunk)
+        return robust_problem(wl_path, model, robust, T=T, delta=delta, chunk=chunk, family=family)
 
     desc = model.description
     meta = {
@@ -136,10 +160,22 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
         "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline,
         "n_dof": n_ctrl, "harmonics": model.harmonics, "frequency": model.frequency,
         "evaluation": "thesis", "replicas": R, "jitter": float(jitter),
-    }
+    } | controller_meta(family)
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
-    return Problem(name=str(wl_path), n_genes=model.n_genes, base_genome=base,
+    return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base),
                    evaluate=evaluate_genomes, meta=meta)
+
+
+def controllers(family: Family | None, model, g, key=None):
+    """The controllers of genomes ``g`` [N, G] (:func:`cpgjax.episode.policy.from_genomes`), computed apart from the
+    simulation (the barrier: the same weights in every program, cf. :func:`robust_problem`)."""
+    c = from_genomes(family, model, g, key=key)
+    return c if family is None else jax.lax.optimization_barrier(c)
+
+
+def controller_meta(family: Family | None) -> dict:
+    """What a run records of its controller family: nothing for the thesis's CPG (the runs made before it)."""
+    return {} if family is None else {"controller": family.spec}
 
 
 def base_genome(model) -> np.ndarray:
@@ -150,10 +186,13 @@ def base_genome(model) -> np.ndarray:
 METRICS = ("fitness", "diverged", "distance", "speed", "tilt", "fallen")
 
 
-def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, chunk: int = 256) -> Problem:
+def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, chunk: int = 256,
+                   family: Family | None = None) -> Problem:
     """The robust evaluation of a built ``model`` read from ``wl_path`` (see :func:`wl_problem`)."""
     model = model.replace(terrain=roughened(model.terrain, p.roughness))
-    n_ctrl, n_coeff, G, R = model.n_ctrl, model.n_coeff, model.n_genes, p.replicas
+    n_ctrl, R = model.n_ctrl, p.replicas
+    G = model.n_genes if family is None else family.n_genes(model)
+    sensing = {} if family is None else {"latency": p.latency, "noise": p.noise}
     lo, hi = -0.8, 0.8
 
     def evaluate_genomes(genomes, keys):
@@ -170,8 +209,9 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
         # the barrier keeps XLA from fusing (and re-rounding) the draws into the simulation differently
         # in different programs (cf. optim.algorithm.generation_step)
         var, g = jax.lax.optimization_barrier((var, g))
-        r = evaluate(model, g.reshape(-1, n_ctrl, n_coeff), time=T, delta=delta, chunk=chunk, var=var,
-                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival)
+        nk = noise_key(k[: n * R]) if family is not None and p.noise > 0 else None
+        r = evaluate(model, controllers(family, model, g, nk), time=T, delta=delta, chunk=chunk, var=var,
+                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, **sensing)
         if p.fall_zero:   # a fall forfeits the episode
             r = dict(r, fitness=jnp.where(r["down"], 0.0, r["fitness"]))
         elif p.fall_survival:   # a fall scales the episode's score by the share of it the robot stayed up
@@ -187,7 +227,7 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
             "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline,
             "n_dof": n_ctrl,
             "harmonics": model.harmonics, "frequency": model.frequency, "evaluation": "robust",
-            "replicas": R, "perturbations": p.to_dict()}
+            "replicas": R, "perturbations": p.to_dict()} | controller_meta(family)
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
-    return Problem(name=str(wl_path), n_genes=G, base_genome=base, evaluate=evaluate_genomes, meta=meta,
-                   stochastic=True)
+    return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base),
+                   evaluate=evaluate_genomes, meta=meta, stochastic=True)

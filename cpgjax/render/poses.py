@@ -90,6 +90,15 @@ def _frames_from_cm(model, x: np.ndarray, q: np.ndarray):
     return pos, quat
 
 
+def _one(model, controller):
+    """One controller: CPG coefficients [n_ctrl, 2K+1] float32, or a one-robot closed loop (as it is)."""
+    from cpgjax.episode.policy import is_closed
+
+    if is_closed(controller):
+        return controller
+    return np.asarray(controller, np.float32).reshape(model.n_ctrl, model.n_coeff)
+
+
 def record_ours(model, coeffs, *, time: float | None = None, fps: float = 30.0, delta: float | None = None) -> Poses:
     """Our simulator's episode of one controller [n_ctrl, 2K+1], one recorded sample per video frame.
 
@@ -103,11 +112,11 @@ def record_ours(model, coeffs, *, time: float | None = None, fps: float = 30.0, 
     from cpgjax.episode.rollout import rollout, schedule
 
     delta = DEFAULT_DELTA if delta is None else delta
-    c = np.asarray(coeffs, np.float32).reshape(model.n_ctrl, model.n_coeff)
-    C = np.repeat(c[None], LANES, 0)          # one whole SIMD vector of robots, as simulate runs it
+    c = _one(model, coeffs)
+    C = jax.tree.map(lambda a: np.repeat(a[None], LANES, 0), c)   # one whole SIMD vector of robots, as simulate runs it
     T = model.time_max if time is None else float(time)
-    f = jax.jit(lambda cc: rollout(model, jnp.moveaxis(cc, 0, -1), time=T, delta=delta, record=True,
-                                   log_rate=fps))
+    f = jax.jit(lambda cc: rollout(model, jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), cc), time=T, delta=delta,
+                                   record=True, log_rate=fps))
     out = jax.tree.map(lambda a: np.asarray(a), f(C))
     traj = out["traj"]
     pos, quat = _frames_from_cm(model, traj["x"][..., 0].astype(float), traj["q"][..., 0].astype(float))
@@ -124,6 +133,7 @@ def record_ours(model, coeffs, *, time: float | None = None, fps: float = 30.0, 
 
 def record_mujoco(model, coeffs, *, times: np.ndarray, delta: float | None = None) -> Poses:
     """The same controller in MuJoCo C (the exported model), its body frames at ``times`` [F] s."""
+    import jax
     import mujoco
 
     from cpgjax.crosscheck.engines import mujoco_run
@@ -132,7 +142,7 @@ def record_mujoco(model, coeffs, *, times: np.ndarray, delta: float | None = Non
 
     delta = DEFAULT_DELTA if delta is None else delta
     mj = load(model)
-    c = np.asarray(coeffs, np.float64).reshape(1, model.n_ctrl, model.n_coeff)
+    c = jax.tree.map(lambda a: a[None], _one(model, coeffs))
     T = float(np.max(times))
     metrics, qpos, _ = mujoco_run(model, c, time=T, delta=delta, mj=mj, nthread=1)
     idx = np.clip(np.rint(np.asarray(times) / mj.opt.timestep).astype(int), 0, qpos.shape[1] - 1)
@@ -152,7 +162,8 @@ def record_mujoco(model, coeffs, *, times: np.ndarray, delta: float | None = Non
 
 
 def load_run(path: str, generation: int | None = None, *, terrain: str | None = None, pipeline: str | None = None):
-    """(model, coeffs [n_ctrl, 2K+1], time, label) of a run file's best controller.
+    """(model, controller, time, label) of a run file's best controller (coefficients [n_ctrl, 2K+1], or a one-robot
+    :class:`~cpgjax.episode.policy.ClosedLoop` for a closed-loop run).
 
     ``generation``: the best of that generation (negative counts from the end) instead of the whole
     run's.  The model is the `.wl` text stored in the run (not the file on disk, which may have
@@ -184,5 +195,10 @@ def load_run(path: str, generation: int | None = None, *, terrain: str | None = 
                         terrain=terrain if terrain is not None else cli.get("terrain"),
                         pipeline=pipeline or run.pipeline)
     time = cli.get("time") or run.meta.get("time") or model.time_max
-    coeffs = np.asarray(genome, np.float32).reshape(model.n_ctrl, model.n_coeff)
+    import jax
+
+    from cpgjax.episode.policy import family_from_meta, from_genomes
+
+    coeffs = jax.tree.map(lambda a: a[0], from_genomes(family_from_meta(run.meta), model,
+                                                        np.asarray(genome, np.float32)[None]))
     return model, coeffs, float(time), f"generation {gen}, #{idx} (GA fitness {fit:+.4f})"

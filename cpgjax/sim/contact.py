@@ -110,12 +110,25 @@ def contact_frame(model, cp, var):
     """Depth [nc, B] and the :class:`_Frame` of the terrain under the contact vertices at ``cp`` [3, nc, B]."""
     if model.terrain.flat:  # fast path: z_g = 0, n = (0, 0, 1), no lookup
         return -cp[2], _Frame()
-    sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
-    zg, n = height_and_normal(model.terrain, cp[0] + sx, cp[1] + sy)
+    zg, n = terrain_under(model, cp[0], cp[1], var)
     n = jnp.stack(n)
     inv = 1.0 / jnp.sqrt(n[0] ** 2 + n[2] ** 2)
     t1 = jnp.stack([n[2] * inv, jnp.zeros_like(zg), -n[0] * inv])
     return (zg - cp[2]) * n[2], _Frame(n, t1, cross(n, t1))
+
+
+def terrain_under(model, x, y, var=None):
+    """Height and unit normal (3-tuple) of the terrain under the points ``(x, y)`` of each robot: the model's terrain
+    looked up where a :class:`~cpgjax.sim.variation.Variation` places the robot (its ``shift``), its heights and
+    slopes scaled by the variation's ``relief`` when it has one."""
+    sx, sy = (0.0, 0.0) if var is None else (var.shift[0], var.shift[1])
+    zg, n = height_and_normal(model.terrain, x + sx, y + sy)
+    if var is None or var.relief is None:
+        return zg, n
+    s = var.relief                              # z = s h: the gradient scales by s, n ~ (s n_x, s n_y, n_z)
+    nx, ny, nz = s * n[0], s * n[1], n[2]
+    inv = 1.0 / jnp.sqrt(nx * nx + ny * ny + nz * nz)
+    return s * zg, (nx * inv, ny * inv, nz * inv)
 
 
 def contact_forces(model, R, r, p, pv, a, alpha, anchor, f_prev, var=None, keep=None):
@@ -184,7 +197,7 @@ def contact_law(model, depth, fr, cp, anchor, vs, k, carry_n, carry_t=None, var=
     kn, k11, k12, k22 = k
     vs_n, vs_1, vs_2 = vs
     touch = depth > 0
-    A, B = model.ground_A, model.ground_B
+    A, B = ground(model, var)
     fa = A * depth
     vn = vs_n + dt * kn * fa + carry_n
     fn = jnp.where(touch, jnp.maximum(fa - B * vn / (1.0 + dt * B * kn), 0.0), 0.0)
@@ -215,6 +228,16 @@ def bristle(model, var=None):
     :class:`~cpgjax.sim.variation.Variation`'s bristle scale)."""
     kb = model.friction_k if var is None else model.friction_k * var.bristle
     return kb, model.friction_b + kb * model.dt
+
+
+def ground(model, var=None):
+    """Eq. 3.7's stiffness A and damping B, per robot with a ``Variation``'s ``stiffness`` and ``damping``."""
+    A, B = model.ground_A, model.ground_B
+    if var is not None and var.stiffness is not None:
+        A = A * var.stiffness
+    if var is not None and var.damping is not None:
+        B = B * var.damping
+    return A, B
 
 
 def friction(model, var=None):

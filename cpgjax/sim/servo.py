@@ -13,10 +13,11 @@ import jax.numpy as jnp
 from cpgjax.sim.joints import implicit_damping
 
 
-def servo_gains(model, gain=None, implicit=True):
+def servo_gains(model, gain=None, implicit=True, torque=None):
     """kp, ki, kd (implicit, see `joints.implicit_damping`) and the torque limit [nctrl, B|1].
 
-    ``gain`` [nctrl, B] (a :class:`~cpgjax.sim.variation.Variation`) scales kp, ki and kd per robot.
+    ``gain`` [nctrl, B] (a :class:`~cpgjax.sim.variation.Variation`) scales kp, ki and kd per robot, ``torque``
+    [nctrl, B] (its ``torque``) the torque limit.
     ``implicit=False``: the nominal kd (exact joints put ``dt kd`` into the joint-space inertia instead).
     """
     cj = model.ctrl_joint
@@ -31,6 +32,8 @@ def servo_gains(model, gain=None, implicit=True):
         kp, ki = kp * gain, ki * gain
         c = model.j_kd[cj][:, None] * gain
         kd = c / (1.0 + model.dt * c * model.springs.j_inv_ieff[cj][:, None])
+    if torque is not None:
+        tmax = tmax * torque
     return kp, ki, kd, tmax
 
 
@@ -41,7 +44,7 @@ def servo_pi(model, angle, target, e_int, gain=None):
     return kp * err + ki * e_int, err
 
 
-def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, implicit=True):
+def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, implicit=True, torque=None):
     """Servo torque [nctrl, B]: ``clip(PI + kd' (dq*/dt - q'), -tau_max, tau_max)``.
 
     The derivative is backward Euler on the joint's two bodies: ``q'`` [nctrl, B] is the joint
@@ -52,5 +55,5 @@ def servo_torques(model, tau_pi, rate_pred, target_rate, gain=None, implicit=Tru
     ``implicit=False`` (exact joints, `sim.exact`): the nominal kd on the rate given; the pipeline puts
     ``dt kd`` into its joint-space inertia, so that the damper acts on the end-of-step rate of the whole robot.
     """
-    _, _, kd, tmax = servo_gains(model, gain, implicit)
+    _, _, kd, tmax = servo_gains(model, gain, implicit, torque)
     return jnp.clip(tau_pi + kd * (target_rate - rate_pred), -tmax, tmax)

@@ -3,8 +3,10 @@
 The :class:`~cpgjax.sim.model.Model` is one nominal robot; a :class:`Variation` holds, per robot
 of the batch (batch-last arrays), scale factors on its friction coefficients, friction bristle, body
 masses and inertias and servo gains, a shift of where it stands on the terrain, and an offset of its initial
-pose.  ``Variation.nominal(model, B)`` is the identity (all scales 1, no shift, no offset); the
-simulator with it computes exactly what it computes without one.
+pose; optionally (``None``: as the model says, the same program as without the field) scale factors on the
+servos' torque limit, the ground's stiffness A and damping B (eq. 3.7) and the relief of the terrain.
+``Variation.nominal(model, B)`` is the identity (all scales 1, no shift, no offset); the simulator with it
+computes exactly what it computes without one.
 
 This is what the robust evaluation (``optim.factory``, docs/evolution.md) draws afresh every
 generation, so that a controller cannot win by luck in one exact episode: a real robot is never
@@ -29,6 +31,10 @@ class Variation(NamedTuple):
     lift: jax.Array       # [B]   initial height offset of the whole robot, m
     tilt: jax.Array       # [2, B] initial roll and pitch of the whole robot about its tracked body's CM, rad
     bristle: jax.Array    # [B]   scale of the friction bristle's spring k (``FrictionSpring``, sim.contact)
+    torque: jax.Array | None = None     # [nctrl, B] scale of each servo's torque limit (sim.servo)
+    stiffness: jax.Array | None = None  # [B] scale of the ground's A (eq. 3.7, sim.contact)
+    damping: jax.Array | None = None    # [B] scale of the ground's B (eq. 3.7, sim.contact)
+    relief: jax.Array | None = None     # [B] scale of the terrain's heights (and slopes) under the robot
 
     @staticmethod
     def nominal(model, batch: int, dtype=jnp.float32) -> Variation:

@@ -3,6 +3,7 @@
 import re
 
 import numpy as np
+import pytest
 from runcases import TINY_TIME
 
 from cpgjax.cli import main
@@ -20,6 +21,24 @@ def test_best_controller_replays_with_the_fitness_the_ga_gave_it(tiny_runs, tmp_
     c = read_ctl(ctl, n_dof=8, harmonics=2)
     np.testing.assert_array_equal(c.coeffs.astype(np.float32).reshape(-1), np.asarray(genome, np.float32))
     assert main(["simulate", "models/quadruped.wl", "--ctl", str(ctl), "--time", str(TINY_TIME)]) == 0
+    out = capsys.readouterr().out
+    replay = float(re.search(r"fitness\s+([-+0-9.e]+)", out).group(1))
+    assert abs(replay - fit) < 1e-5, (replay, fit)
+
+
+@pytest.mark.slow   # 40 s of CPU: a closed loop's GA and its replay compile; fast: its .ctl round trip (io/test_ctl.py)
+def test_a_closed_loop_best_replays_with_the_fitness_the_ga_gave_it(tmp_path, capsys):
+    run = tmp_path / "r.h5"
+    ctl = tmp_path / "best.ctl"
+    assert main(["evolve", "models/quadruped.wl", "--controller", "pmtg", "--population", "6", "--generations", "2",
+                 "--time", "1", "--out", str(run), "--quiet"]) == 0
+    assert main(["best", str(run), "--ctl", str(ctl)]) == 0
+    assert "policy pmtg: 10 outputs x 20 inputs" in capsys.readouterr().out
+    _, _, fit, genome = read_run(str(run)).best()
+    c = read_ctl(ctl, n_dof=8, harmonics=2)
+    np.testing.assert_array_equal(c.coeffs.astype(np.float32).reshape(-1), np.asarray(genome, np.float32)[:40])
+    assert c.policy is not None and c.policy.weights.shape == (10, 20)
+    assert main(["simulate", "models/quadruped.wl", "--ctl", str(ctl), "--time", "1"]) == 0
     out = capsys.readouterr().out
     replay = float(re.search(r"fitness\s+([-+0-9.e]+)", out).group(1))
     assert abs(replay - fit) < 1e-5, (replay, fit)

@@ -139,3 +139,70 @@ def test_malformed_ctl(tmp_path, text, n_dof, harmonics, line, message):
         read_ctl(path, n_dof=n_dof, harmonics=harmonics)
     assert str(e.value).startswith(f"{path}:{line}: "), str(e.value)
     assert message in e.value.message, e.value.message
+
+
+def _closed_loop(model):
+    from cpgjax.episode import policy as pol
+
+    fam = pol.Family()
+    g = np.random.default_rng(4).uniform(-0.8, 0.8, (1, fam.n_genes(model))).astype(np.float32)
+    return pol.from_genomes(fam, model, g)[0]
+
+
+def test_a_closed_loop_controller_round_trips_through_its_ctl_file(tmp_path):
+    """The CPG's coefficients and the policy's weights read back as the same float32 (exact digits)."""
+    from cpgjax.episode import policy as pol
+    from cpgjax.io.ctl import PolicyTable
+    from cpgjax.io.wl import load_model
+
+    m = load_model("models/quadruped.wl")
+    c = _closed_loop(m)
+    path = str(tmp_path / "cl.ctl")
+    write_ctl(path, c.coeffs, 0.5, exact=True, policy=PolicyTable(**pol.table_fields(c, m)))
+    back = read_ctl(path, n_dof=8, harmonics=2)
+    assert back.policy.inputs[3] == ("contact", 4) and back.policy.outputs == (("offsets", 8), ("frequency", 1),
+                                                                             ("amplitude", 1))
+    again = pol.from_control(back, m)
+    assert again.family == c.family
+    np.testing.assert_array_equal(again.coeffs, c.coeffs)
+    np.testing.assert_array_equal(again.weights, c.weights)
+    assert pol.from_control(read_ctl(_write(tmp_path, THESIS_CTL)), m).shape == (8, 5)   # open loop: coefficients
+
+
+@pytest.mark.parametrize("edit, line, message", [
+    (lambda t: t.replace("Policy pmtg", "Policy"), 10, "expected 'Policy NAME'"),
+    (lambda t: t.replace("Inputs", "Inptus"), 11, "expected the policy's 'Inputs NAME SIZE ...' line"),
+    (lambda t: t.replace("bias 1\n", "bias\n", 1), 11, "NAME SIZE pairs"),
+    (lambda t: t.replace("tilt 2", "tilt two"), 11, "the size of tilt must be a whole number"),
+    (lambda t: t.replace("Outputs offsets 8", "Outputs offsets 8 offsets 8"), 12, "a group is named twice"),
+    (lambda t: "\n".join(t.splitlines()[:-1]) + "\n", 22, "expected 10 lines of policy weights"),
+    (lambda t: t + "0.1\n", 24, r"one number per input \(20\); found 1"),
+    (lambda t: t + "Policy pmtg\n", 24, "a second 'Policy' line"),
+])
+def test_a_malformed_policy_is_named_with_its_line(tmp_path, edit, line, message):
+    from cpgjax.episode import policy as pol
+    from cpgjax.io.ctl import PolicyTable
+    from cpgjax.io.wl import load_model
+
+    m = load_model("models/quadruped.wl")
+    c = _closed_loop(m)
+    text = edit(format_ctl(c.coeffs, 0.5, exact=True, policy=PolicyTable(**pol.table_fields(c, m))))
+    with pytest.raises(DescriptionError, match=message) as e:
+        read_ctl(_write(tmp_path, text), n_dof=8, harmonics=2)
+    assert str(e.value).startswith(f"{tmp_path / 'c.ctl'}:{line}: ")
+
+
+def test_a_policy_that_does_not_fit_the_model_is_named_with_its_line(tmp_path):
+    from cpgjax.episode import policy as pol
+    from cpgjax.io.ctl import PolicyTable
+    from cpgjax.io.wl import load_model
+
+    m = load_model("models/quadruped.wl")
+    c = _closed_loop(m)
+    t = format_ctl(c.coeffs, 0.5, exact=True, policy=PolicyTable(**pol.table_fields(c, m)))
+    bad = t.replace("contact 4", "contact 3").replace("phase 2", "phase 3")      # 20 inputs still, not the model's
+    with pytest.raises(DescriptionError, match="do not fit the model: expected angles 8") as e:
+        pol.from_control(read_ctl(_write(tmp_path, bad), n_dof=8, harmonics=2), m)
+    assert str(e.value).startswith(f"{tmp_path / 'c.ctl'}:10: Inputs ")
+    with pytest.raises(DescriptionError, match="unknown controller family 'ann'"):
+        pol.from_control(read_ctl(_write(tmp_path, t.replace("Policy pmtg", "Policy ann")), 8, 2), m)

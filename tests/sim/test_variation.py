@@ -103,3 +103,35 @@ def test_bristle_scale_is_a_stiffer_friction_spring():
     b = np.asarray(draw(m, Perturbations(bristle=2.0), keys, 40)[0].bristle)
     assert b.min() >= 1.0 and b.max() <= 100.0 and b.max() > 30 and b.min() < 3
     assert np.all(np.asarray(draw(m, Perturbations(), keys, 40)[0].bristle) == 1.0)
+
+
+def test_ground_stiffness_scale_sets_the_resting_penetration_and_damping_scale_does_not():
+    """m g / (s A contacts): a box on ground 0.5x and 1.5x as stiff sinks 2x and 1/1.5x as deep (eq. 3.7); the
+    damper's scale changes how it settles, not where."""
+    m = box(z=0.05, mass=10.0)
+    s = np.array([0.5, 1.0, 1.5], np.float32)
+    var = Variation.nominal(m, 3)._replace(stiffness=jnp.asarray(s), damping=jnp.asarray([1.5, 0.6, 1.0]))
+    r = _run(m, var, 2.0, record=True)
+    depth = 0.05 - r["traj"]["x"][-1, 2, 0]
+    # measured: within 2.1e-4 of it (float32 positions of a box 5 cm up: 4 ulp of 0.05 m is 1.5e-8 m)
+    np.testing.assert_allclose(depth, 10.0 * 9.81 / (1e5 * s * 4), rtol=1e-3)
+
+
+@pytest.mark.parametrize("pipeline", ["springs", "exact"])
+def test_torque_limit_scale_sets_how_far_a_saturated_servo_swings_an_arm_against_gravity(pipeline):
+    """A servo asked for 1.4 rad saturates at its limit tau s and swings the hanging arm up from rest; the first swing
+    stops where the work of the constant torque equals the gain of potential energy (no damper acts on a saturated
+    servo): tau s q = m g d (1 - cos q), m = 0.5 kg, d = 0.065 m from the hip to the arm's CM, tau = 0.1 N m."""
+    from scipy.optimize import brentq
+    from simcases import model_from, rig
+
+    m = model_from(rig(time=1, servo="60 0 1 0.1").description.text, pipeline=pipeline)
+    s = np.array([0.8, 1.0, 1.2], np.float32)
+    var = Variation.nominal(m, 3)._replace(torque=jnp.asarray(s[None]))
+    coeffs = jnp.zeros((m.n_ctrl, m.n_coeff, 3)).at[:, 0].set(1.4)
+    r = jax.tree.map(np.asarray, jax.jit(lambda v: rollout(m, coeffs, time=1.0, var=v, record=True))(var))
+    swing = np.abs(r["traj"]["angle"][:, 0]).max(0)
+    mgd = 0.5 * 9.81 * 0.065
+    expected = [brentq(lambda q, t=0.1 * k: mgd * (1 - np.cos(q)) - t * q, 0.1, 1.3) for k in s]
+    # measured: within 1.7e-4 of it on both pipelines (the log samples every 10 ms miss the turning point by less)
+    np.testing.assert_allclose(swing, expected, rtol=1e-3)

@@ -294,9 +294,10 @@ def sweep_problem(problem_args: dict[str, Any], batch: int | None = None) -> Pro
     ``batch``: the sweep's evaluations per generation; the simulator's chunk is chosen to pad it
     little (results do not depend on the chunk; the robust evaluation's replicas ride in the batch).
     """
-    args = {k: problem_args.get(k) for k in ("time", "terrain", "delta", "evaluation", "perturb", "pipeline")}
+    args = {k: problem_args.get(k) for k in ("time", "terrain", "delta", "evaluation", "perturb", "pipeline",
+                                             "controller")}
     if batch and args["evaluation"] == "robust":
         from cpgjax.episode.perturb import Perturbations
 
-        batch *= Perturbations(**(args["perturb"] or {})).replicas
+        batch *= Perturbations.from_settings(args["perturb"]).replicas
     return make_problem(problem_args["model"], **args, chunk=eval_chunk(batch) if batch else None)

@@ -29,7 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.sim.contact import bristle, contact_frame, friction, trail_anchor
+from cpgjax.sim.contact import bristle, contact_frame, friction, ground, trail_anchor
 from cpgjax.sim.exact.levels import Dofs, dofs_add, dofs_axpy, state_dofs
 from cpgjax.sim.exact.smooth import com_vel, factor_m, project, solve_m
 from cpgjax.sim.exact.tree import _slots
@@ -165,11 +165,11 @@ def _damped(model, qM: JointSpaceInertia, jac: ContactJacobian, beta, gamma) -> 
 
 
 @stage
-def _at_start(model, state, pts: Points, depth, fr):
+def _at_start(model, state, pts: Points, depth, fr, A):
     """The law's explicit part at the start of the step: the normal spring's push ``A d``, the bristles' stretch
     along the ground, and the vertices' velocities in the terrain frame."""
     _, z_1, z_2 = fr.comp(pts.world - state.anchor)
-    fa = jnp.where(depth > 0, model.ground_A * depth, 0.0)
+    fa = jnp.where(depth > 0, A * depth, 0.0)
     v_start = fr.comp(_vertex_velocities(model, pts, state.w, state.v))
     return fa, z_1, z_2, v_start
 
@@ -193,10 +193,10 @@ def contact(model, state, com: Com, qM: JointSpaceInertia, qfrc: Dofs, var=None)
     u = state_dofs(model, state)
     depth, fr = contact_frame(model, pts.world, var)
     touch = depth > 0
-    B = model.ground_B
+    A, B = ground(model, var)
     kb, bp = bristle(model, var)
     mu_s, mu_d = friction(model, var)
-    fa, z_1, z_2, v_start = _at_start(model, state, pts, depth, fr)
+    fa, z_1, z_2, v_start = _at_start(model, state, pts, depth, fr, A)
     jac = contact_jacobian(model, com, pts, fr)
 
     def law(vel):                               # the stick law's forces (n, t1, t2) at end-of-step velocities

@@ -53,8 +53,9 @@ def step(model, state, ctrl, var=None):
         damp = jnp.where((angle > hi) | (angle < lo), model.limit_c, 0.0)
         if model.n_ctrl:
             cj = model.ctrl_joint
-            tau_s = servo_torques(model, tau_pi, rate[cj], target_rate, gain, implicit=False)
-            _, _, kd, tmax = servo_gains(model, gain, implicit=False)
+            torque = None if var is None else var.torque
+            tau_s = servo_torques(model, tau_pi, rate[cj], target_rate, gain, implicit=False, torque=torque)
+            _, _, kd, tmax = servo_gains(model, gain, implicit=False, torque=torque)
             tau_j = tau_j.at[cj].add(tau_s)
             damp = damp.at[cj].add(jnp.where(jnp.abs(tau_s) < tmax, kd, 0.0))
         qM = qM._replace(diag=tuple(None if lvl == 0 else d + dt * take(damp, lv.joint[lvl])

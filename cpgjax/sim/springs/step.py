@@ -85,7 +85,8 @@ def servo_derivative(model, R, ctrl, joints, alpha, var=None):
     ja, jb = model.j_a[cj], model.j_b[cj]
     rate_pred = rate[cj] + model.dt * dot(alpha[:, jb] - alpha[:, ja], axis[:, cj])
     gain = None if var is None else var.gain
-    extra = servo_torques(model, tau_pi, rate_pred, ctrl[1], gain) - tau_pi
+    torque = None if var is None else var.torque
+    extra = servo_torques(model, tau_pi, rate_pred, ctrl[1], gain, torque=torque) - tau_pi
     tau = jnp.zeros_like(rate).at[cj].set(extra)
     return torque_accelerations(model, R, sum_onto_bodies(model, None, tau * axis), None if var is None else var.mass)
 

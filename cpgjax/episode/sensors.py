@@ -1,0 +1,150 @@
+"""What the robot senses: the observation of a closed-loop controller (beyond the thesis; its Ch. 5.2, 5.4.2, 7).
+
+The thesis's robot had joint encoders (Ch. 5.2.1), a vestibular system, two pendulums giving the body's roll
+and pitch (Ch. 5.2.2), and touch sensors on the feet were its next step (Ch. 5.4.2).  The observation is what
+those sensors read, in groups (a closed-loop controller reads some or all of them,
+:class:`cpgjax.episode.policy.Family`), every group computed from the simulator's state alone:
+
+- ``angles`` [n_ctrl]: the controlled joints' angles, rad (the encoders; on exact joints the generalized
+  coordinates, on pivot springs measured from the bodies' poses, :func:`cpgjax.sim.joints.joint_angles`);
+- ``tilt`` [2]: roll and pitch of the tracked body, rad, as the vestibular pendulums read them: a pendulum
+  swinging in the body's plane of its forward (+y) and up (+z) axes hangs along gravity's projection on that plane,
+  so it reads ``pitch = atan2(u_y, u_z)``, and the other, in the plane of +x and +z, ``roll = atan2(-u_x, u_z)``,
+  ``u`` the world's up axis in body coordinates (a body turned by an angle a about its +x axis reads pitch a,
+  about +y roll a);
+- ``rates`` [2]: the roll and pitch rates, rad/s (a rate gyro: the body's angular velocity about its +y and +x
+  axes);
+- ``contact`` [legs]: 1 where a leg's foot touches the ground, else 0 (the touch sensors; a leg and its foot as in
+  :func:`cpgjax.episode.descriptors.legs`; touching as the contact law tests it, some vertex of the foot in the
+  terrain, depth > 0, or just on it, depth 0: a robot placed on the ground reads its feet down from t = 0);
+- ``phase`` [2]: ``sin`` and ``cos`` of the CPG's phase (:mod:`cpgjax.episode.policy`);
+- ``command`` [1]: the commanded turning rate, rad/s (0 unless a task sets it);
+- ``bias`` [1]: the constant 1.
+
+Each group has a scale (:data:`SCALES`): the size of a typical reading, by which the policy's weights are scaled
+(:mod:`cpgjax.episode.policy`) and sensor noise is sized (:func:`noise`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from cpgjax.episode.descriptors import legs
+from cpgjax.sim.contact import terrain_under
+from cpgjax.sim.joints import joint_angles
+from cpgjax.sim.rotation import matTvec, matvec, quat_to_mat
+
+#: The observation's groups, in the order they are stacked.
+GROUPS = ("angles", "tilt", "rates", "contact", "phase", "command", "bias")
+#: The typical size of a group's readings (rad, rad, rad/s, 1, 1, rad/s, 1).
+SCALES = {"angles": 1.0, "tilt": 0.5, "rates": 2.0, "contact": 1.0, "phase": 1.0, "command": 1.0, "bias": 1.0}
+#: The groups that are sensors: noise is added to them, not to the CPG's phase, the command or the bias.
+SENSED = ("angles", "tilt", "rates", "contact")
+
+
+def sizes(model) -> dict[str, int]:
+    """The number of readings of each group for ``model``."""
+    return {"angles": model.n_ctrl, "tilt": 2, "rates": 2, "contact": int(legs(model)[1].shape[0]), "phase": 2,
+            "command": 1, "bias": 1}
+
+
+def _feet(model):
+    """(contact vertices of the feet [nf], the leg of each [nf], number of legs)."""
+    feet = legs(model)[1]
+    leg, vert = np.nonzero(feet)
+    return vert, leg, feet.shape[0]
+
+
+def touch(model, s, var=None):
+    """[legs, B] 1.0 where a leg's foot touches the terrain (some vertex of it at depth >= 0), else 0.0."""
+    vert, leg, n_legs = _feet(model)
+    B = s.x.shape[-1]
+    if n_legs == 0:
+        return jnp.zeros((0, B), s.x.dtype)
+    pts = np.asarray(model.ct_pt)[vert]
+    body = np.asarray(model.pt_body)[pts]
+    R = quat_to_mat(s.q[:, body])                                       # [3, 3, nf, B]
+    p = s.x[:, body] + matvec(R, jnp.asarray(model.pt_local[:, pts], s.x.dtype)[:, :, None])
+    if model.terrain.flat:
+        down = p[2] <= 0
+    else:
+        zg, _ = terrain_under(model, p[0], p[1], var)
+        down = zg - p[2] >= 0
+    out = []
+    for k in range(n_legs):                                             # any vertex of the leg's foot
+        idx = np.nonzero(leg == k)[0]
+        d = down[idx[0]]
+        for i in idx[1:]:
+            d = d | down[i]
+        out.append(d)
+    return jnp.stack(out).astype(s.x.dtype)
+
+
+def vestibular(model, s):
+    """Roll, pitch [2, B] (rad) and their rates [2, B] (rad/s) of the tracked body (see the module docstring)."""
+    q = s.q[:, model.track]
+    R = quat_to_mat(q)                                                  # [3, 3, B]: body axes in world columns
+    ux, uy, uz = R[2, 0], R[2, 1], R[2, 2]                              # the world's up in body coordinates
+    wb = matTvec(R, s.w[:, model.track])                                # angular velocity in body coordinates
+    return jnp.stack([jnp.arctan2(-ux, uz), jnp.arctan2(uy, uz)]), jnp.stack([wb[1], wb[0]])
+
+
+def angles(model, s):
+    """[n_ctrl, B] the controlled joints' angles (rad)."""
+    if s.exact is not None:
+        return s.exact.angle[model.ctrl_joint]
+    R = quat_to_mat(s.q)
+    return joint_angles(model, R, s.w)[0][model.ctrl_joint]
+
+
+def observe(model, groups, s, var, phase, command):
+    """The observation [n, B]: the readings of ``groups`` (in :data:`GROUPS` order) stacked.
+
+    ``phase``: (sin, cos) [B] of the CPG's phase; ``command`` [B] the commanded turning rate.
+    """
+    parts = []
+    tilt = rates = None
+    for g in GROUPS:
+        if g not in groups:
+            continue
+        if g == "angles":
+            parts.append(angles(model, s))
+        elif g in ("tilt", "rates"):
+            if tilt is None:
+                tilt, rates = vestibular(model, s)
+            parts.append(tilt if g == "tilt" else rates)
+        elif g == "contact":
+            parts.append(touch(model, s, var))
+        elif g == "phase":
+            parts.append(jnp.stack(phase))
+        elif g == "command":
+            parts.append(command[None])
+        else:
+            parts.append(jnp.ones((1,) + command.shape, command.dtype))
+    return jnp.concatenate(parts, 0)
+
+
+def noise_scale(model, groups) -> np.ndarray:
+    """[n] the sensor-noise amplitude of each reading per unit of noise: ``sqrt(3)`` times its group's scale
+    (uniform noise of that half-width has the standard deviation of the scale), 0 for what is not a sensor."""
+    n = sizes(model)
+    return np.concatenate([np.full(n[g], math.sqrt(3.0) * SCALES[g] if g in SENSED else 0.0)
+                           for g in GROUPS if g in groups]).astype(np.float32)
+
+
+def noise(key, step, amplitude):
+    """Sensor noise [n, B] of one step: ``amplitude`` [n] times ``U(-1, 1)`` drawn per robot from its key.
+
+    ``key`` [2, B] uint32 (the raw data of each robot's key), ``step`` []: the step count, folded into each key,
+    so the draws depend only on the robot's key and the step (reproducible, and independent of the batch).
+    """
+    def one(k):
+        kk = jax.random.fold_in(jax.random.wrap_key_data(k), step)
+        return jax.random.uniform(kk, amplitude.shape, jnp.float32, -1.0, 1.0)
+
+    u = jax.vmap(one, in_axes=1, out_axes=1)(key)
+    return jnp.asarray(amplitude)[:, None] * u

@@ -1,0 +1,60 @@
+"""The robust evaluation's perturbations (cpgjax/episode/perturb.py): domain randomisation's draws and records."""
+
+import jax
+import numpy as np
+import pytest
+
+from cpgjax.episode.perturb import LATER, PRESETS, Perturbations, draw
+from cpgjax.io.wl import load_model
+
+
+def test_the_domain_preset_draws_every_range_within_its_bounds_and_spans_it():
+    m = load_model("models/quadruped.wl", pipeline="exact")
+    p = Perturbations.from_settings({"preset": "domain", "mass": 0.08})        # a key beside the preset wins
+    assert p.roughness == 0.04 and p.relief == 1.0 and p.mass == 0.08 and p.fall_survival
+    keys = jax.random.split(jax.random.key(5), 512)
+    var, offsets = jax.tree.map(np.asarray, jax.jit(lambda k: draw(m, p, k, 40))(keys))
+    for name, r in (("friction", p.friction), ("mass", p.mass), ("gain", p.gain), ("torque", p.torque),
+                    ("stiffness", p.stiffness), ("damping", p.damping)):
+        a = getattr(var, name)
+        assert a.shape[-1] == 512 and a.min() >= 1 - r and a.max() <= 1 + r, name
+        assert a.min() < 1 - 0.95 * r and a.max() > 1 + 0.95 * r, name            # the whole range is drawn
+    assert var.torque.shape == (m.n_ctrl, 512) and var.mass.shape == (m.nb, 512)
+    assert var.relief.min() >= 0 and var.relief.max() <= 1 and var.relief.min() < 0.01 and var.relief.max() > 0.99
+    d = np.log10(var.bristle)
+    assert d.min() >= 0 and d.max() <= p.bristle + 1e-6 and d.max() > 0.95 * p.bristle
+    assert np.abs(var.shift[0]).max() <= 1.5 and np.abs(var.shift[1]).max() <= 2.0
+    assert np.abs(offsets).max() <= np.sqrt(3) * p.jitter * (1 + 1e-6)
+
+
+def test_ranges_left_off_add_no_field_and_no_record():
+    """Without the later ranges the draws and the record are those of the runs made before them (they resume)."""
+    m = load_model("models/quadruped.wl")
+    p = Perturbations()
+    keys = jax.random.split(jax.random.key(0), 16)
+    var, _ = draw(m, p, keys, 40)
+    assert var.torque is None and var.stiffness is None and var.damping is None and var.relief is None
+    assert set(p.to_dict()) == {"replicas", "lift", "tilt", "roughness", "friction", "mass", "gain", "jitter",
+                                "bristle", "fall_ends", "fall_zero", "fall_survival"}
+    assert set(Perturbations.from_settings({"preset": "domain"}).to_dict()) >= set(PRESETS["domain"])
+    assert set(LATER) <= {f for f in Perturbations.__dataclass_fields__}
+
+
+def test_the_run_records_every_range_drawn_and_the_controller_family():
+    from cpgjax.optim.factory import make_problem
+
+    p = make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller="pmtg",
+                     perturb={"preset": "domain", "noise": 0.02, "latency": 1})
+    rec = p.meta["perturbations"]
+    assert Perturbations(**rec) == Perturbations.from_settings({"preset": "domain", "noise": 0.02, "latency": 1})
+    assert rec["stiffness"] == 0.5 and rec["relief"] == 1.0 and rec["latency"] == 1 and rec["noise"] == 0.02
+    assert p.meta["controller"] == "pmtg" and p.n_genes == 240
+    np.testing.assert_array_equal(p.base_genome[40:], 0.0)                   # the start: the CPG's, no feedback
+    assert "controller" not in make_problem("models/quadruped.wl", time=0.2).meta   # the thesis's runs as before
+
+
+@pytest.mark.parametrize("bad, message", [({"latency": 2}, "latency is 0 or 1"), ({"relief": 1.5}, "relief"),
+                                          ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown")])
+def test_bad_ranges_are_refused(bad, message):
+    with pytest.raises(ValueError, match=message):
+        Perturbations.from_settings(bad)
