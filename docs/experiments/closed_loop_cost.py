@@ -6,8 +6,6 @@ One generation's batch of the robust evaluation (20 controllers x 4 episodes, th
     .venv/bin/python docs/experiments/closed_loop_cost.py
 """
 
-import cpgjax  # noqa: F401  (first: one host device per core, cpgjax/_xla.py)
-
 import os
 import time
 
@@ -15,6 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+import cpgjax  # noqa: F401  (first: one host device per core, cpgjax/_xla.py)
 from cpgjax.optim.factory import make_problem
 
 SETTINGS = [

@@ -14,7 +14,6 @@ from cpgjax.io.wl import load_model
 from cpgjax.sim.state import varied_initial_state
 from cpgjax.sim.variation import Variation
 
-
 SINK = 0.001    # m: the robot pushed 1 mm into the ground, so that its feet are down in both engines (in the design
 #                pose they are exactly on it: a contact of distance 0, which MuJoCo may or may not list)
 
