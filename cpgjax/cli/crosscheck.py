@@ -201,4 +201,6 @@ def cmd_transfer(args: argparse.Namespace) -> int:
         print(text)
         if args.out:
             print(f"\nwrote {args.out}/transfer.md, transfer.json, transfer.png")
+        if len(replays) == 1:
+            print("\n" + transfer.sentence(replays[0], args.replays))
     return 0

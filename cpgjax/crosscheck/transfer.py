@@ -119,6 +119,19 @@ def verdict(failed: list[str]) -> str:
     return "yes" if not failed else "no: " + ", ".join(failed)
 
 
+def sentence(r: Replay, replays: int) -> str:
+    """One run's outcome in words, for a reader who did not ask for a table (``make run``'s last lines): how fast its
+    gait walks here and in MuJoCo C, whether it stays up in each (once as it is, and in ``replays`` jittered
+    replays), and whether it carries over (:data:`RULE`)."""
+    def up(fell: bool, falls: int) -> str:
+        return (("falls" if fell else "stays up") + f" ({int(falls)} of {replays} jittered replays fall)")
+    head = (f"{r.label}: {r.ours['speed']:.3f} m/s here, {up(r.ours['fallen'], r.ours_jit['falls'])}; "
+            f"{r.mujoco['speed']:.3f} m/s in MuJoCo C, {up(r.mujoco['fallen'], r.mujoco_jit['falls'])}")
+    if r.carries_over:
+        return head + ": it carries over"
+    return head + ": it does not carry over (" + ", ".join(r.failures) + ")"
+
+
 
 
 def run_setting(run) -> tuple[str, float | None, str | None]:
