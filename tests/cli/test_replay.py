@@ -45,8 +45,8 @@ def test_a_closed_loop_best_replays_with_the_fitness_the_ga_gave_it(tmp_path, ca
 
 
 def test_replicas_average_jittered_episodes():
-    p1 = make_problem("models/quadruped.wl", time=0.5)
-    p3 = make_problem("models/quadruped.wl", time=0.5, replicas=3)
+    p1 = make_problem("models/quadruped.wl", time=TINY_TIME)
+    p3 = make_problem("models/quadruped.wl", time=TINY_TIME, replicas=3)
     import jax
 
     g = np.tile(p1.base_genome, (2, 1)).astype(np.float32)
