@@ -103,18 +103,11 @@ def test_a_passive_double_pendulum_keeps_its_energy_without_damping():
     assert np.abs(e - e[0]).max() < 0.02 * scale, (e[0], e.min(), e.max())
 
 
-def test_a_box_rests_at_eq_3_7s_depth():
-    m = box(z=0.05, mass=10.0).replace(pipeline="exact", dt=2e-3)
-    r = simulate(m, np.zeros((0, 5)), time=2.0, record=True)
-    depth = 0.05 - r["traj"]["x"][-1, 2, 0]
-    expected = 10.0 * 9.81 / (1e5 * 4)  # four bottom corners
-    assert abs(depth - expected) / expected < 0.02, (depth, expected)
-
-
-def test_a_sliding_box_decelerates_at_mu_g_and_the_ground_never_pulls():
+def test_a_sliding_box_decelerates_at_mu_g_and_rests_at_eq_3_7s_depth_and_the_ground_never_pulls():
     """Coulomb's law on the coupled contact solve: a box sliding at 1 m/s on mu = 0.5 slows at mu g while it
     slides (the bristle's pull capped at the cone's share), and a box dropped from 5 cm bounces on a ground
-    that pushes only (the second solve releases the vertices it would pull)."""
+    that pushes only (the second solve releases the vertices it would pull); after 2 s both rest at eq. 3.7's
+    depth (one program for the three)."""
     mu, g = 0.5, 9.81
     m = box(z=0.05, mass=10.0, friction=mu).replace(pipeline="exact", dt=2e-3)
     s = initial_state(m, 2)
@@ -122,15 +115,19 @@ def test_a_sliding_box_decelerates_at_mu_g_and_the_ground_never_pulls():
     x = s.x.at[2, 0, 0].set(rest).at[2, 0, 1].set(0.1)
     v = s.v.at[0, 0, 0].set(1.0)
     anchor = s.anchor.at[2, :, 0].add(rest - 0.05)
-    _, traj = _run(m, s._replace(x=x, v=v, anchor=anchor), 150)
+    _, traj = _run(m, s._replace(x=x, v=v, anchor=anchor), 1000)
     vx = np.asarray(traj.v[:, 0, 0, 0])                    # [steps]
     t = (np.arange(len(vx)) + 1) * 2e-3
     sliding = (t > 0.02) & (t < 0.15)                        # stops at v0 / (mu g) = 0.20 s
     slope = np.polyfit(t[sliding], vx[sliding], 1)[0]
     # measured -4.83 m/s^2 against -mu g = -4.905 (1.6 %: the box rocks a little on its front edge)
     assert abs(slope + mu * g) < 0.03 * mu * g, slope
-    fn = np.asarray(traj.f_n[:, :, 1])
+    fn = np.asarray(traj.f_n[:150, :, 1])                  # the dropped box's first bounce
     assert fn.max() > 10.0 and fn.min() >= 0.0, (fn.max(), fn.min())
+    assert np.asarray(traj.f_n).min() >= 0.0
+    depth = 0.05 - np.asarray(traj.x[-1, 2, 0])             # both boxes, at rest after 2 s
+    # four bottom corners; measured within 3e-5 of it (both boxes), checked at 2 %
+    np.testing.assert_allclose(depth, 10.0 * g / (1e5 * 4), rtol=0.02)
 
 
 def test_the_two_pipelines_agree_on_a_servo_rig():
