@@ -59,7 +59,7 @@ def pytest_sessionfinish(session, exitstatus):
 # worker idles.  Only the order changes: a stale list costs time, never a result.
 HEAVY_FIRST = (
     "experiments/test_sweep.py", "optim/test_factory.py", "sim/exact/test_exact_step.py", "sim/exact/test_stages.py",
-    "experiments/test_notebooks.py", "experiments/test_robust.py", "optim/test_es.py", "sim/test_contact.py",
+    "experiments/test_robust.py", "optim/test_es.py", "sim/test_contact.py",
     "episode/test_rollout.py",
     "crosscheck/test_transfer.py", "sim/test_variation.py", "experiments/test_validate.py", "optim/test_ga.py",
     "test_models.py", "experiments/test_stability.py", "crosscheck/test_mjcf.py", "cli/test_replay.py",
