@@ -53,18 +53,18 @@ def pytest_sessionfinish(session, exitstatus):
         session.config.workeroutput["cpu"] = _cpu(resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
 
 
-# The files that take longest (CPU seconds of the fast suite, measured 2026-11-25, heaviest first).  With
+# The files that take longest (CPU seconds of the fast suite, measured 2026-11-26, heaviest first).  With
 # `make test`'s pytest-xdist workers (``--dist loadfile``: a file's tests run in one worker, sharing its
 # module-scoped fixtures) they start first, so that no long file is left alone at the end while the other
 # worker idles.  Only the order changes: a stale list costs time, never a result.
 HEAVY_FIRST = (
-    "experiments/test_sweep.py", "optim/test_factory.py", "sim/exact/test_exact_step.py", "sim/exact/test_stages.py",
-    "experiments/test_notebooks.py", "experiments/test_robust.py", "optim/test_es.py", "sim/test_contact.py",
-    "episode/test_rollout.py",
-    "crosscheck/test_transfer.py", "sim/test_variation.py", "experiments/test_validate.py", "optim/test_ga.py",
-    "test_models.py", "experiments/test_stability.py", "crosscheck/test_mjcf.py", "cli/test_replay.py",
-    "experiments/test_evolve.py", "render/test_render.py", "cli/test_cli_bad_input.py", "analysis/test_report.py",
-    "experiments/test_studies.py", "experiments/test_cluster.py",
+    "experiments/test_sweep.py", "sim/test_contact.py", "episode/test_rollout.py", "optim/test_es.py",
+    "crosscheck/test_mjcf.py", "optim/test_ga.py", "sim/test_variation.py", "sim/exact/test_exact_step.py",
+    "episode/test_policy.py", "render/test_render.py", "cli/test_repertoire.py", "experiments/test_evolve.py",
+    "experiments/test_robust.py", "analysis/test_report.py", "experiments/test_stability.py",
+    "optim/test_mapelites.py", "test_models.py", "episode/test_descriptors.py", "cli/test_cli_bad_input.py",
+    "experiments/test_validate.py", "crosscheck/test_compare.py", "experiments/test_bench.py",
+    "episode/test_sensors.py", "crosscheck/test_transfer.py",
 )
 
 

@@ -8,7 +8,8 @@ from cpgjax.io.logs import read_log
 
 
 def test_simulate_trot_prints_the_metrics_and_writes_thesis_logs(tmp_path, capsys):
-    rc = main(["simulate", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--time", "2",
+    # the suite's tiny episode (tests/runcases.py: TINY_TIME), recorded: the program of episode/test_rollout.py
+    rc = main(["simulate", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--time", "0.3",
                "--log", str(tmp_path)])
     out = capsys.readouterr().out
     assert rc == 0
@@ -19,8 +20,8 @@ def test_simulate_trot_prints_the_metrics_and_writes_thesis_logs(tmp_path, capsy
     assert lines[0] == "# Log file for compound Body"
     assert lines[1] == "# quadruped.wl quadruped-trot.ctl"
     rows = read_log(log)
-    assert rows.shape == (41, 7)  # LogRate 20 for 2 s, from t = 0: T X Y Z theta phi psi
-    assert rows[0, 0] == 0.0 and rows[-1, 0] == 2.0
+    assert rows.shape == (7, 7)  # LogRate 20 for 0.3 s, from t = 0: T X Y Z theta phi psi
+    assert rows[0, 0] == 0.0 and rows[-1, 0] == pytest.approx(0.3, abs=1e-6)
     np.testing.assert_allclose(np.diff(rows[:, 0]), 0.05, atol=1e-4)
 
 

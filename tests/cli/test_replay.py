@@ -45,12 +45,12 @@ def test_a_closed_loop_best_replays_with_the_fitness_the_ga_gave_it(tmp_path, ca
 
 
 def test_replicas_average_jittered_episodes():
-    p1 = make_problem("models/quadruped.wl", time=0.5)
-    p3 = make_problem("models/quadruped.wl", time=0.5, replicas=3)
+    p1 = make_problem("models/quadruped.wl", time=TINY_TIME)
+    p3 = make_problem("models/quadruped.wl", time=TINY_TIME, replicas=3)
     import jax
 
-    g = np.tile(p1.base_genome, (2, 1)).astype(np.float32)
+    g = np.tile(p1.base_genome, (6, 1)).astype(np.float32)    # 6: the batch of experiments/test_sweep.py's re-scoring
     f1 = np.asarray(jax.jit(p1.evaluate)(g)["fitness"])       # jitted: eagerly the episode runs op by op
     f3 = np.asarray(jax.jit(p3.evaluate)(g)["fitness"])
-    assert f3.shape == (2,) and np.isfinite(f3).all()
+    assert f3.shape == (6,) and np.isfinite(f3).all()
     assert f3[0] == f3[1] and abs(f3[0] - f1[0]) < 0.05

@@ -31,8 +31,9 @@ def test_export_loads_in_mujoco_and_mjx_with_the_same_mass_joints_actuators(name
 
 def test_standing_height_agrees_with_mujoco_within_1cm(quad):
     zero = np.zeros((1, 8, 5))
-    met, _, _ = mujoco_run(quad, zero, time=3.0)
-    pen = simulate(quad, zero[0], time=3.0, record=True)
+    # 5 s recorded: the program of episode/test_rollout.py's standing quadruped
+    met, _, _ = mujoco_run(quad, zero, time=5.0)
+    pen = simulate(quad, zero[0], time=5.0, record=True)
     z_pen = pen["traj"]["x"][-1, 2, quad.track]
     z_mj = met["cm"][0, -1, 2]
     assert abs(z_pen - z_mj) < 0.01, (z_pen, z_mj)
@@ -56,8 +57,9 @@ def test_single_joint_on_a_fixed_base_follows_a_half_hertz_target_in_both():
 
 def test_hand_written_trot_moves_forward_in_both_engines(quad):
     trot = read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs[None]
-    met, _, _ = mujoco_run(quad, trot, time=5.0)
-    pen = simulate(quad, trot[0], time=5.0)
+    # 6 s: the program of the trot's GIF caption replayed (tests/test_figures.py)
+    met, _, _ = mujoco_run(quad, trot, time=6.0)
+    pen = simulate(quad, trot[0], time=6.0)
     assert met["distance"][0] > 0.4 and pen["distance"] > 0.4
     assert not met["fallen"][0] and not pen["fallen"]
 

@@ -110,9 +110,9 @@ def test_a_sweeps_runs_can_be_summarised_per_setting(runs, capsys):
                                                  "spearman_fitness_interval"}
     with pytest.raises(ValueError, match="by must be one of"):
         transfer.summary(rs, "seed")
-    # the command line: a run's folder is its cell
+    # the command line: a run's folder is its cell (2 replays: the programs of the first test of this file)
     files = [str(runs / "thesis.h5"), str(runs / "robust.h5")]
-    assert cli.main(["transfer", *files, "--replays", "1", "--by", "cell", "--json"]) == 0
+    assert cli.main(["transfer", *files, "--replays", "2", "--by", "cell", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary[runs.name]["runs"] == 2
 

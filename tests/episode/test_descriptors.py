@@ -68,7 +68,7 @@ def test_a_robot_standing_still_has_every_foot_always_down_and_does_not_turn():
     from cpgjax.episode.rollout import rollout
 
     coeffs = jnp.zeros((model.n_ctrl, model.n_coeff, 16))
-    r = rollout(model, coeffs, time=1.0, descriptors=True)
+    r = rollout(model, coeffs, time=0.5, descriptors=True)     # the program of the test below
     np.testing.assert_array_equal(np.asarray(r["duty"]), 1.0)
     assert np.abs(np.asarray(r["turn"])).max() < 1e-4 and np.abs(np.asarray(r["heading_speed"])).max() < 1e-4
 

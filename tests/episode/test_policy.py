@@ -3,6 +3,7 @@
 import jax
 import numpy as np
 import pytest
+from runcases import TINY_TIME
 
 from cpgjax.episode import policy as pol
 from cpgjax.episode.batch import evaluate, simulate
@@ -29,8 +30,8 @@ def _zero_policy(model, C, family=pol.Family()):
 
 def _same_bits(model, n):
     C = _trots(model, n)
-    open_loop = simulate(model, C[0] if n == 1 else C, time=1.0)  # one robot: tests/episode/test_rollout.py's program
-    closed = simulate(model, _zero_policy(model, C), time=1.0)
+    open_loop = simulate(model, C[0] if n == 1 else C, time=TINY_TIME)  # one robot: episode/test_rollout.py's program
+    closed = simulate(model, _zero_policy(model, C), time=TINY_TIME)
     for k in open_loop:
         np.testing.assert_array_equal(open_loop[k], np.asarray(closed[k]).reshape(np.shape(open_loop[k])), err_msg=k)
     assert n == 1 or np.ptp(open_loop["distance"]) > 0      # different episodes
@@ -52,9 +53,9 @@ def test_a_closed_loop_robot_gets_the_same_bits_alone_and_in_a_batch():
     """Batch independence (cpgjax/episode/batch.py): a robot's episode does not depend on its neighbours."""
     m = load_model(QUAD)
     c = _batch_of(m, 33)
-    batch = simulate(m, c, time=1.0)
+    batch = simulate(m, c, time=TINY_TIME)
     for i in (0, 32):
-        alone = simulate(m, c[i:i + 1], time=1.0)          # the program of the test above (one robot)
+        alone = simulate(m, c[i:i + 1], time=TINY_TIME)          # the program of the test above (one robot)
         for k in ("distance", "fitness", "tilt"):
             np.testing.assert_array_equal(alone[k], batch[k][i:i + 1], err_msg=k)
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from runcases import TINY_TIME
 
 from cpgjax.episode.batch import simulate
 from cpgjax.io.ctl import read_ctl
@@ -50,15 +51,17 @@ def test_left_right_symmetric_gait_does_not_drift_sideways(quad):
 def test_a_batch_of_n_equals_n_single_runs_and_is_deterministic(quad):
     rng = np.random.default_rng(0)
     # not a multiple of the SIMD width, split over devices, and over 96 per device: where XLA would hand the
-    # reductions to YNNPACK, which sums in another order (cpgjax/_xla.py)
+    # reductions to YNNPACK, which sums in another order (cpgjax/_xla.py).  The suite's tiny episode length:
+    # one robot alone and recorded are the programs of cli/test_replay.py, cli/test_cli.py, episode/test_policy.py
     C = rng.uniform(-0.5, 0.5, (197, 8, 5))
-    batch = simulate(quad, C, time=1.0)
-    again = simulate(quad, C, time=1.0)
+    batch = simulate(quad, C, time=TINY_TIME)
+    again = simulate(quad, C, time=TINY_TIME)
     for k in batch:
         np.testing.assert_array_equal(batch[k], again[k])
-    recorded = simulate(quad, C[:3], time=1.0, record=True)
+    assert np.ptp(batch["distance"]) > 0                     # 197 different episodes
+    recorded = simulate(quad, C[:3], time=TINY_TIME, record=True)
     for i in (0, 1, 2, 20, 196):
-        one = simulate(quad, C[i], time=1.0)
+        one = simulate(quad, C[i], time=TINY_TIME)
         np.testing.assert_array_equal(one["distance"], batch["distance"][i])
         np.testing.assert_array_equal(one["fitness"], batch["fitness"][i])
     np.testing.assert_array_equal(recorded["fitness"], batch["fitness"][:3])
@@ -72,6 +75,7 @@ def test_a_diverging_episode_is_flagged_not_crashed(quad):
     assert np.isfinite(r["distance"]).all()
 
 
+@pytest.mark.slow  # a program of its own (12 s of CPU); fast: the diverging step above
 def test_absurd_gains_are_flagged_too(quad):
     j = [jj for jj in quad.j_kp]
     wild = quad.replace(j_kp=np.full_like(quad.j_kp, 1e7), j_taumax=np.full_like(quad.j_taumax, 1e7))

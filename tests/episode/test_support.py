@@ -1,15 +1,19 @@
 """Projection stability: the support-polygon distance against hand-computed cases (thesis Ch. 6.4.2)."""
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from cpgjax.episode.support import projection_stability, support_distance
 
+# jitted: one compiled program per number of feet (run op by op, each operation compiled for itself)
+_SUPPORT = jax.jit(support_distance)
+
 
 def _d(points, down, c):
     p = jnp.asarray(np.asarray(points, np.float32).T)
-    d, n = support_distance(p[0], p[1], jnp.asarray(down), jnp.float32(c[0]), jnp.float32(c[1]))
+    d, n = _SUPPORT(p[0], p[1], jnp.asarray(down), jnp.float32(c[0]), jnp.float32(c[1]))
     return float(d), int(n)
 
 

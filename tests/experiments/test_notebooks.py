@@ -1,5 +1,6 @@
 """The notebooks execute end to end at tiny scale (cpgjax.experiments.notebook: nbclient, a kernel of this
-interpreter).  The stability notebook is marked slow (`make test-all`)."""
+interpreter), marked slow (`make test-slow`); the fast suite checks that every notebook's code parses and that
+every name it takes from cpgjax exists, and runs the `cpgjax notebook` command on a small notebook."""
 
 from __future__ import annotations
 
@@ -33,16 +34,77 @@ def _thesis_figures_tiny(tmp_path) -> list[str]:
     return args
 
 
+@pytest.mark.slow  # 45 s of CPU, most of it the tiny sweep compiled in the kernel; fast: the check below
 def test_thesis_figures_notebook_tiny(tmp_path):
     _thesis_figures_tiny(tmp_path)
 
 
-@pytest.mark.slow  # a second kernel (8 s of CPU); `make test-all` runs it
-def test_thesis_figures_notebook_run_again_finds_the_sweep_complete_and_only_redraws(tmp_path):
-    args = _thesis_figures_tiny(tmp_path)
-    sweep_files = {p: os.path.getmtime(p) for p in (tmp_path / "sweep").rglob("*.h5")}
-    assert cli.main([*args, "--no-save"]) == 0
-    assert {p: os.path.getmtime(p) for p in (tmp_path / "sweep").rglob("*.h5")} == sweep_files   # not one run rewritten
+def _cpgjax_names(tree) -> list[tuple[str, str, int]]:
+    """(module, name, line) of every name a notebook's code takes from cpgjax: ``from cpgjax.m import n`` and
+    ``alias.n`` for a module imported as ``alias``."""
+    import ast
+
+    names, aliases = [], {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("cpgjax"):
+            for a in node.names:
+                names.append((node.module, a.name, node.lineno))
+                aliases[a.asname or a.name] = f"{node.module}.{a.name}"
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith("cpgjax.") and a.asname:
+                    aliases[a.asname] = a.name
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in aliases:
+            names.append((aliases[node.value.id], node.attr, node.lineno))
+    return names
+
+
+def _missing(tree) -> list[str]:
+    """The names of :func:`_cpgjax_names` that cpgjax does not have, each as ``line: module has no name``."""
+    import importlib
+
+    missing = []
+    for module, attr, line in _cpgjax_names(tree):
+        try:
+            obj = importlib.import_module(module)
+        except ImportError:                                 # ``alias.n`` of a name imported from a module
+            parent, _, last = module.rpartition(".")
+            obj = getattr(importlib.import_module(parent), last, None)
+            if obj is None:
+                missing.append(f"line {line}: no module {module}")
+                continue
+        ok = hasattr(obj, attr)
+        if not ok:
+            try:
+                importlib.import_module(f"{module}.{attr}")        # a submodule not imported yet
+                ok = True
+            except ImportError:
+                pass
+        if not ok:
+            missing.append(f"line {line}: {module} has no {attr}")
+    return missing
+
+
+def test_every_notebook_parses_and_takes_only_names_cpgjax_has():
+    """The notebooks' code against the package as it is now, without a kernel (their execution: the slow tests
+    above): each code cell parses, and each module, function or constant it takes from cpgjax exists."""
+    import ast
+    import json
+
+    bad = ast.parse("from cpgjax.plots import thesis\nfrom cpgjax.io.nothing import x\nthesis.fig_6_99()\n")
+    assert _missing(bad) == ["line 2: no module cpgjax.io.nothing", "line 3: cpgjax.plots.thesis has no fig_6_99"]
+    for name in sorted(os.listdir(os.path.join(ROOT, "notebooks"))):
+        if not name.endswith(".ipynb"):
+            continue
+        nb = json.load(open(os.path.join(ROOT, "notebooks", name)))
+        cells = ["".join(c["source"]) for c in nb["cells"] if c["cell_type"] == "code"]
+        assert cells, name
+        for i, src in enumerate(cells):
+            code = "\n".join("" if line.lstrip().startswith(("%", "!")) else line for line in src.splitlines())
+            tree = ast.parse(code, f"notebooks/{name}, code cell {i + 1}")
+            assert not _missing(tree), f"notebooks/{name}, code cell {i + 1}: {_missing(tree)}"
+
 
 
 def test_a_notebook_is_saved_under_runs_and_a_failing_one_names_the_error(tmp_path, monkeypatch, capsys):

@@ -185,17 +185,19 @@ def test_resume_after_interruption_equals_uninterrupted(quad_sweep, tmp_path):
     assert s["skipped"] == len(specs) and s["evaluations"] == 0
 
 
+# the small sweeps on an analytic problem below: one shape (2 γ x 2 seeds x 4 robots), one compiled program
+SMALL = ["sweep", "analytic:sphere:10", "--population", "4", "--seeds", "2", "--gamma", "0,1", "--quiet"]
+
+
 def test_mismatching_settings_are_refused(tmp_path):
     out = str(tmp_path / "s")
-    assert cli.main(["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "1",
-                     "--out", out, "--quiet"]) == 0
+    assert cli.main([*SMALL, "--generations", "2", "--out", out]) == 0
     run = os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff", "s0.h5")
     with h5py.File(run, "a") as f:              # pretend it was made with another init spread
         cfg = json.loads(f.attrs["config"])
         cfg["init_spread"] = 0.3
         f.attrs["config"] = json.dumps(cfg)
-    assert cli.main(["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "1",
-                     "--out", out, "--quiet"]) == 2
+    assert cli.main([*SMALL, "--generations", "2", "--out", out]) == 2
     with pytest.raises(ResultsError):
         sweep.run_sweep(sweep.sweep_problem({"model": "analytic:sphere:10"}),
                         sweep.plan(out, sweep.ga_grid(population=(4,), generations=2), [0]), progress=False)
@@ -203,8 +205,7 @@ def test_mismatching_settings_are_refused(tmp_path):
 
 def test_generations_can_be_extended(tmp_path):
     out = str(tmp_path / "s")
-    base = ["sweep", "analytic:sphere:10", "--population", "4", "--seeds", "2", "--gamma", "0,1", "--out", out,
-            "--quiet"]
+    base = [*SMALL, "--out", out]
     assert cli.main([*base, "--generations", "2"]) == 0
     assert cli.main([*base, "--generations", "5"]) == 0
     for files in sweepdir.find_runs(out).values():
@@ -387,8 +388,7 @@ def test_a_run_file_another_writer_holds_stops_the_sweep_before_it_writes(tmp_pa
     from cpgjax.io import runlock
 
     out = str(tmp_path / "s")
-    args = ["sweep", "analytic:sphere:10", "--generations", "2", "--population", "4", "--seeds", "2",
-            "--out", out, "--quiet"]
+    args = [*SMALL, "--generations", "2", "--out", out]
     held = os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff", "s1.h5")
     with runlock.hold(held):
         capsys.readouterr()
@@ -397,4 +397,5 @@ def test_a_run_file_another_writer_holds_stops_the_sweep_before_it_writes(tmp_pa
         assert len(err.splitlines()) == 1 and held in err and f"pid {os.getpid()}" in err
         assert sweepdir.find_runs(out) == {}                      # no run file created, not even s0's
     assert cli.main(args) == 0 and len(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == 2
+    assert len(sweepdir.find_runs(out)["ga_n4_mu0.2_g1_p0_xoff"]) == 2
     assert not [f for _, _, fs in os.walk(out) for f in fs if f.endswith(".lock")]   # every lock let go

@@ -233,7 +233,8 @@ def test_a_run_files_best_renders_through_the_command_line(tiny_runs, tmp_path, 
 
     run = tiny_runs["thesis"]
     out = tmp_path / "best.gif"
-    assert cli.main(["render", run, "--generation", "1", "--time", "0.3", "--fps", "10", "--size", "80x60",
+    # 1.5 s at 8 frames a second: the recording program of the ``trot`` fixture
+    assert cli.main(["render", run, "--generation", "1", "--time", "1.5", "--fps", "8", "--size", "80x60",
                      "--camera", "fixed", "--out", str(out), "--quiet"]) == 0
     assert out.stat().st_size > 1000 and "fitness" in capsys.readouterr().out
     assert cli.main(["render", run, "--generation", "5", "--out", str(tmp_path / "x.gif")]) == 2

@@ -38,12 +38,19 @@ def test_the_nominal_variation_is_the_nominal_robot():
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-5, err_msg=k)
 
 
+def _resting_box(mass=(1.0, 1.0, 1.0), stiffness=(1.0, 1.0, 1.0), damping=(1.0, 1.0, 1.0)):
+    """Three 10 kg boxes resting on the ground for 2 s with their mass, the ground's stiffness and its damping
+    scaled (every scale given, ones for the nominal: one compiled program for the tests below)."""
+    m = box(z=0.05, mass=10.0)
+    f32 = lambda a: jnp.asarray(a, jnp.float32)  # noqa: E731
+    var = Variation.nominal(m, 3)._replace(mass=f32(mass)[None], stiffness=f32(stiffness), damping=f32(damping))
+    return _run(m, var, 2.0, record=True)
+
+
 def test_resting_penetration_follows_the_scaled_mass():
     """m g / (A contacts) with m scaled per robot: a box 0.8x and 1.5x as heavy sinks 0.8x and 1.5x as deep."""
-    m = box(z=0.05, mass=10.0)
     scale = np.array([0.8, 1.0, 1.5], np.float32)
-    var = Variation.nominal(m, 3)._replace(mass=jnp.asarray(scale[None]))
-    r = _run(m, var, 2.0, record=True)
+    r = _resting_box(mass=scale)
     depth = 0.05 - r["traj"]["x"][-1, 2, 0]
     expected = scale * 10.0 * 9.81 / (1e5 * 4)
     np.testing.assert_allclose(depth, expected, rtol=0.02)
@@ -108,10 +115,8 @@ def test_bristle_scale_is_a_stiffer_friction_spring():
 def test_ground_stiffness_scale_sets_the_resting_penetration_and_damping_scale_does_not():
     """m g / (s A contacts): a box on ground 0.5x and 1.5x as stiff sinks 2x and 1/1.5x as deep (eq. 3.7); the
     damper's scale changes how it settles, not where."""
-    m = box(z=0.05, mass=10.0)
     s = np.array([0.5, 1.0, 1.5], np.float32)
-    var = Variation.nominal(m, 3)._replace(stiffness=jnp.asarray(s), damping=jnp.asarray([1.5, 0.6, 1.0]))
-    r = _run(m, var, 2.0, record=True)
+    r = _resting_box(stiffness=s, damping=(1.5, 0.6, 1.0))
     depth = 0.05 - r["traj"]["x"][-1, 2, 0]
     # measured: within 2.1e-4 of it (float32 positions of a box 5 cm up: 4 ulp of 0.05 m is 1.5e-8 m)
     np.testing.assert_allclose(depth, 10.0 * 9.81 / (1e5 * s * 4), rtol=1e-3)
