@@ -6,7 +6,8 @@ of the program, timed alone (not "first call minus a steady call", which is no c
 came out negative for MJX under load); the run is the best of the calls of that compiled program.
 ``--tricks`` also measures what each speed trick buys, side by side in one run: all
 host devices vs one, the polynomial atan2 vs the library one, the chunk size, and on exact joints
-the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion.
+the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion, and a step compiled as one
+kernel (`sim.tricks.one_kernel`) at the thesis's population of 20 and at the large batch.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from functools import partial
 import numpy as np
 
 DEFAULT_BATCHES = (1, 20, 256, 1024, 4096)
+AGAINST_BATCHES = (20, 256, 1024)      # --against: the thesis's population of 20 beside large batches
 
 
 def _controllers(model, n, seed=0):
@@ -191,6 +193,11 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
         if model.exact is not None:         # the exact pipeline's stages computed once into memory, or not
             plain = model.replace(exact=dataclasses.replace(model.exact, materialize=False))
             trows.append(row(plain, b, time_s, chunk=chunk, label="no materialized stages"))
+            one = model.replace(exact=dataclasses.replace(model.exact, one_kernel=True))
+            for n in sorted({20, b}):
+                if n != b:
+                    trows.append(row(model, n, time_s, label="all tricks", chunk=chunk))
+                trows.append(row(one, n, time_s, chunk=chunk, label="a step as one kernel"))
         for c in (32, 64, 128, 512):
             trows.append(row(model, b, time_s, label=f"chunk {c}", chunk=c))
         print()
@@ -199,7 +206,7 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
     return rows
 
 
-def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 1.0, chunk: int = 256,
+def bench_against_mjx(model_path: str, batches=AGAINST_BATCHES, time_s: float = 1.0, chunk: int = 256,
                       pipeline: str | None = None):
     """The quadruped in the penalty simulator, MJX (fast settings) and MuJoCo C's threaded rollout.
 
@@ -237,7 +244,8 @@ def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 
                      "robot_steps_per_s": b * steps / run, "robot_s_per_s": b * steps * MJ_TIMESTEP / run})
         pen, mjc, mjx_ = rows[-3]["robot_s_per_s"], rows[-2]["robot_s_per_s"], rows[-1]["robot_s_per_s"]
         print(f"  batch {b}: penalty {pen:,.0f}, MuJoCo C {mjc:,.0f}, MJX {mjx_:,.0f} robot-s/s "
-              f"(penalty/MJX {pen / mjx_:.1f}x, penalty/MuJoCo C {pen / mjc:.2f}x)", flush=True)
+              f"(penalty/MJX {pen / mjx_:.1f}x, penalty/MuJoCo C {pen / mjc:.2f}x; compile: penalty "
+              f"{rows[-3]['compile_s']:.2f} s, MJX {rows[-1]['compile_s']:.2f} s)", flush=True)
     print()
     print_table(rows)
     return rows
