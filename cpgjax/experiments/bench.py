@@ -6,8 +6,7 @@ of the program, timed alone (not "first call minus a steady call", which is no c
 came out negative for MJX under load); the run is the best of the calls of that compiled program.
 ``--tricks`` also measures what each speed trick buys, side by side in one run: all
 host devices vs one, the polynomial atan2 vs the library one, the chunk size, and on exact joints
-the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion, and a step compiled as one
-kernel (`sim.tricks.one_kernel`) at the thesis's population of 20 and at the large batch.
+the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion.
 """
 
 from __future__ import annotations
@@ -193,11 +192,6 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
         if model.exact is not None:         # the exact pipeline's stages computed once into memory, or not
             plain = model.replace(exact=dataclasses.replace(model.exact, materialize=False))
             trows.append(row(plain, b, time_s, chunk=chunk, label="no materialized stages"))
-            one = model.replace(exact=dataclasses.replace(model.exact, one_kernel=True))
-            for n in sorted({20, b}):
-                if n != b:
-                    trows.append(row(model, n, time_s, label="all tricks", chunk=chunk))
-                trows.append(row(one, n, time_s, chunk=chunk, label="a step as one kernel"))
         for c in (32, 64, 128, 512):
             trows.append(row(model, b, time_s, label=f"chunk {c}", chunk=c))
         print()

@@ -139,14 +139,11 @@ class Model:
 
     def replace(self, **changes) -> Model:
         """A new Model with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``, ``pipeline``), its pipeline's
-        part built again for them (``exact.materialize`` and ``exact.one_kernel`` carried over)."""
+        part built again for them (``exact.materialize`` carried over)."""
         new = dataclasses.replace(self, **changes)
         if "springs" in changes or "exact" in changes:
             return new
-        out = with_pipeline_part(new, materialize=self.exact.materialize if self.exact is not None else True)
-        if self.exact is not None and out.exact is not None and self.exact.one_kernel:
-            out = dataclasses.replace(out, exact=dataclasses.replace(out.exact, one_kernel=True))
-        return out
+        return with_pipeline_part(new, materialize=self.exact.materialize if self.exact is not None else True)
 
 
 def with_pipeline_part(model: Model, materialize: bool = True) -> Model:

@@ -9,18 +9,13 @@ on the pipeline.
 
 from __future__ import annotations
 
-from functools import partial
-
 from cpgjax.sim.exact import step as exact_step
 from cpgjax.sim.springs import step as springs_step
-from cpgjax.sim.tricks import one_kernel
 
 
 def step(model, state, ctrl, var=None):
     """Advance a batch of robots by ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)`` [nctrl, B] each;
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (None: the nominal robot)."""
     if model.exact is not None:
-        if model.exact.one_kernel:
-            return one_kernel(partial(exact_step.step, model))(state, ctrl, var)
         return exact_step.step(model, state, ctrl, var)
     return springs_step.step(model, state, ctrl, var)

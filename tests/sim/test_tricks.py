@@ -10,7 +10,7 @@ import pytest
 from simcases import model_from
 
 from cpgjax.sim import initial_state, step
-from cpgjax.sim.tricks import add_at, column, gather_sum, keep, mul, one_kernel, rot_const, sum0, take
+from cpgjax.sim.tricks import add_at, column, gather_sum, keep, mul, rot_const, sum0, take
 
 X = jnp.asarray(np.random.default_rng(0).normal(size=(3, 7, 4)), jnp.float32)
 
@@ -51,14 +51,6 @@ def test_add_at_adds_to_the_rows_named_without_a_scatter():
     x, y = X[0], X[1, :3] * 2.0                                     # [7, 4], [3, 4]
     np.testing.assert_array_equal(np.asarray(add_at(x, [4, 0, 2], y)), np.asarray(x.at[np.array([4, 0, 2])].add(y)))
     assert "scatter" not in str(jax.make_jaxpr(lambda x: add_at(x, [4, 0, 2], y))(x))
-
-
-def test_one_kernel_is_a_call_xla_emits_whole_with_the_same_values():
-    f = one_kernel(lambda a, b: (a + b, a - b))
-    hlo = jax.jit(f).lower(X, X[::-1]).compile().as_text()
-    assert 'xla_cpu_small_call="true"' in hlo
-    for got, want in zip(jax.jit(f)(X, X[::-1]), (X + X[::-1], X - X[::-1]), strict=True):
-        np.testing.assert_array_equal(np.asarray(got), np.asarray(want))     # a sum and a difference round alike
 
 
 BOX = """

@@ -181,15 +181,13 @@ def build_levels(tree: Tree) -> Levels:
 
 @dataclass(frozen=True, eq=False)
 class ExactModel:
-    """The exact pipeline's part of a `~cpgjax.sim.model.Model`: its tree, the tree by depth, whether its
+    """The exact pipeline's part of a `~cpgjax.sim.model.Model`: its tree, the tree by depth, and whether its
     step's stages are computed once into memory (`sim.tricks.keep`; False only to measure what that buys,
-    ``cpgjax bench --tricks``: the values are the same), and whether a step is compiled as one kernel
-    (`sim.tricks.one_kernel`: faster for small batches, but another rounding at each batch width)."""
+    ``cpgjax bench --tricks``: the values are the same)."""
 
     tree: Tree
     levels: Levels
     materialize: bool = True
-    one_kernel: bool = False
 
 
 def build_exact(model, desc, materialize: bool = True) -> ExactModel:
