@@ -24,11 +24,12 @@ import jax.numpy as jnp
 import numpy as np
 from jax.experimental.xla_metadata import set_xla_metadata
 
-import cpgjax.episode.rollout as rollout_module
 from cpgjax.episode.batch import evaluate
 from cpgjax.experiments.bench import _controllers
 from cpgjax.io.wl import load_model
 from cpgjax.sim import initial_state, step
+
+rollout_module = sys.modules["cpgjax.episode.rollout"]   # the module (cpgjax.episode.rollout is also a function)
 
 
 def one_kernel(fn):
@@ -87,5 +88,5 @@ if __name__ == "__main__":
         for w in widths:
             for one in (False, True):
                 us, comp, h = bare(model, w, steps, one)
-                print(f"{w:4d} robots, {'one kernel   ' if one else 'fused kernels'}: {us:7.1f} us per step (CPU), "
+                print(f"{w} robots, {'one kernel   ' if one else 'fused kernels'}: {us:7.1f} us per step (CPU), "
                       f"compile {comp:5.2f} s, bits {h}", flush=True)
