@@ -124,7 +124,7 @@ def sentence(r: Replay, replays: int) -> str:
     gait walks here and in MuJoCo C, whether it stays up in each (once as it is, and in ``replays`` jittered
     replays), and whether it carries over (:data:`RULE`)."""
     def up(fell: bool, falls: int) -> str:
-        return (("falls" if fell else "stays up") + f" ({int(falls)} of {replays} jittered replays fall)")
+        return ("falls" if fell else "stays up") + f" as it is, {int(falls)} of {replays} jittered replays fall"
     head = (f"{r.label}: {r.ours['speed']:.3f} m/s here, {up(r.ours['fallen'], r.ours_jit['falls'])}; "
             f"{r.mujoco['speed']:.3f} m/s in MuJoCo C, {up(r.mujoco['fallen'], r.mujoco_jit['falls'])}")
     if r.carries_over:

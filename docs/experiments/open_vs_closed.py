@@ -18,6 +18,7 @@ import argparse
 import json
 import os
 import resource
+import statistics
 import subprocess
 import sys
 import time
@@ -84,18 +85,122 @@ def collect(out: str) -> list[dict]:
     return rows
 
 
+def _cm(terrain: str) -> float:
+    return 0.0 if terrain == "flat" else float(terrain.removeprefix("rough")) * 100
+
+
+def table(out: str) -> str:
+    """The results page's tables (every seed, then per family and terrain) from what is on disk."""
+    from cpgjax.crosscheck.transfer import failures, verdict
+
+    rows = collect(out)
+    times = json.load(open(os.path.join(out, "times.json")))
+    fams = [f for f in FAMILIES if any(r["family"] == f for r in rows)]
+    terrains = sorted({r["terrain"] for r in rows}, key=_cm)
+
+    def fails(r):
+        x = r["r"]
+        return failures(x["ours"]["fitness"], x["ours"]["speed"], x["ours"]["fallen"], x["mujoco"]["fitness"],
+                        x["mujoco_jit"]["falls"])
+
+    lines = ["Every seed on flat ground (the run's plain best, its 5 s episode; speed here / in MuJoCo C, m/s; "
+             "falls of 32 jittered replays here / in MuJoCo C):", "",
+             "| seed | " + " | ".join(f"{f}: speed here / MuJoCo, falls, carries over" for f in fams) + " |",
+             "|---:|" + "---|" * len(fams)]
+    for seed in sorted({r["seed"] for r in rows}):
+        cells = []
+        for f in fams:
+            m = [r for r in rows if r["family"] == f and r["seed"] == seed and r["terrain"] == "flat"]
+            if not m:
+                cells.append("")
+                continue
+            x = m[0]["r"]
+            fell = lambda d: " (fell)" if d["fallen"] else ""  # noqa: E731
+            cells.append(f"{x['ours']['speed']:.3f}{fell(x['ours'])} / {x['mujoco']['speed']:.3f}{fell(x['mujoco'])}, "
+                         f"{x['ours_jit']['falls']} / {x['mujoco_jit']['falls']}, {verdict(fails(m[0]))}")
+        lines.append(f"| {seed} | " + " | ".join(cells) + " |")
+    lines += ["", "Per family and ground (medians over the seeds; a run stays up when its replay as it is does not "
+              "fall and at most 2 of its 32 jittered replays do; carries over: the rule of `cpgjax transfer` on "
+              "that ground):", "",
+              "| controller | ground | runs | speed here (median) | speed MuJoCo C (median) | stays up here | "
+              "stays up in MuJoCo C | carries over |", "|---|---|---:|---:|---:|---:|---:|---:|"]
+    for f in fams:
+        for t in terrains:
+            m = [r for r in rows if r["family"] == f and r["terrain"] == t]
+            n = len(m)
+            med = {k: float(statistics.median(r["r"][k]["speed"] for r in m)) for k in ("ours", "mujoco")}
+            up = {k: sum(not r["r"][k]["fallen"] and r["r"][k + "_jit"]["falls"] <= 2 for r in m)
+                  for k in ("ours", "mujoco")}
+            carried = sum(not fails(r) for r in m)
+            ground = "flat" if t == "flat" else f"rough {_cm(t):g} cm"
+            lines.append(f"| {f} | {ground} | {n} | {med['ours']:.3f} | {med['mujoco']:.3f} | {up['ours']} "
+                         f"| {up['mujoco']} | {carried} of {n} |")
+    cost = []
+    for f in fams:
+        t = [v for k, v in times.items() if k.startswith(f + "-")]
+        wall, cpu = [v["wall"] for v in t], [v["cpu"] for v in t]
+        cost.append(f"{f}-loop {statistics.median(wall):.0f} s wall ({min(wall):.0f}-{max(wall):.0f}), "
+                    f"{statistics.median(cpu):.0f} s CPU")
+    lines += ["", "One evolution, compile included (median and range over the seeds; the persistent compilation "
+              "cache warm after each family's first run): " + "; ".join(cost) + "."]
+    return "\n".join(lines)
+
+
+def plot(out: str, path: str) -> None:
+    """Speed against roughness, per controller family and engine: each seed a thin line, the median a thick one."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = collect(out)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    colors = {"open": "tab:blue", "closed": "tab:red"}
+    for f in FAMILIES:
+        for engine, style in (("ours", "-"), ("mujoco", "--")):
+            by_seed: dict = {}
+            for r in rows:
+                if r["family"] == f:
+                    d = r["r"][engine]
+                    by_seed.setdefault(r["seed"], {})[_cm(r["terrain"])] = (d["speed"], d["fallen"])
+            if not by_seed:
+                continue
+            xs = sorted({x for d in by_seed.values() for x in d})
+            for d in by_seed.values():
+                ax.plot(xs, [d.get(x, (float("nan"), False))[0] for x in xs], style, color=colors[f], lw=0.5,
+                        alpha=0.35)
+                fell = [x for x in xs if x in d and d[x][1]]
+                ax.plot(fell, [d[x][0] for x in fell], "x", color=colors[f], ms=5, alpha=0.8)
+            med = [statistics.median(d[x][0] for d in by_seed.values() if x in d) for x in xs]
+            ax.plot(xs, med, style, color=colors[f], lw=2.2, marker="o",
+                    label=f"{f}-loop, {'here' if engine == 'ours' else 'MuJoCo C'} (median)")
+    ax.axhline(0.42, color="0.4", lw=0.8, ls=":")
+    ax.text(0.05, 0.425, "the thesis's 0.42 m/s", fontsize=8, color="0.3", va="bottom")
+    ax.set_xlabel("roughness of the ground [cm]")
+    ax.set_ylabel("speed of the run's best, as it is [m/s]")
+    ax.set_title("open- vs closed-loop, same budget; thin: each seed, x: it fell")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="200-209")
     ap.add_argument("--out", default="runs/open-vs-closed")
     ap.add_argument("--terrains", default=",".join(TERRAINS))
     ap.add_argument("--isa", default=None, help="also set XLA_FLAGS=--xla_cpu_max_isa=ISA (another rounding)")
-    ap.add_argument("--table", action="store_true", help="only tabulate and plot what is on disk")
+    ap.add_argument("--table", action="store_true", help="only tabulate (and plot) what is on disk")
+    ap.add_argument("--figure", default=None, help="also draw speed against roughness into this file")
     a = ap.parse_args()
     if a.isa:
         os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + f" --xla_cpu_max_isa={a.isa}").strip()
     if not a.table:
         evolve_and_replay(a.out, seeds(a.seeds), a.terrains.split(","))
+    print(table(a.out))
+    if a.figure:
+        plot(a.out, a.figure)
+        print(f"wrote {a.figure}")
 
 
 if __name__ == "__main__":

@@ -155,10 +155,10 @@ def test_a_gait_carries_over_when_it_walks_here_and_in_mujoco(changes, failed):
 def test_one_run_is_summed_up_in_a_sentence():
     """`make run`'s last line: the speed and the falls in each engine, and the verdict with its reasons."""
     assert transfer.sentence(_replay(), 32) == (
-        "r: 0.250 m/s here, stays up (0 of 32 jittered replays fall); 0.240 m/s in MuJoCo C, stays up (0 of 32 "
-        "jittered replays fall): it carries over")
+        "r: 0.250 m/s here, stays up as it is, 0 of 32 jittered replays fall; 0.240 m/s in MuJoCo C, stays up as "
+        "it is, 0 of 32 jittered replays fall: it carries over")
     s = transfer.sentence(_replay(fell=True, falls=5), 32)
-    assert "here, falls (0 of 32" in s and "(5 of 32 jittered replays fall)" in s
+    assert "here, falls as it is, 0 of 32" in s and "stays up as it is, 5 of 32 jittered replays fall" in s
     assert s.endswith(": it does not carry over (fell here, 5 MuJoCo falls)")
 
 
