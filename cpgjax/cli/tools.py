@@ -11,14 +11,15 @@ from cpgjax.errors import CpgjaxError
 
 
 def register(subparsers: Any) -> None:
-    from cpgjax.experiments.bench import DEFAULT_BATCHES
+    from cpgjax.experiments.bench import AGAINST_BATCHES, DEFAULT_BATCHES
 
     model = o.default_model()
     batches = o.list_of(o.count, "expected batch sizes >= 1, e.g. 1,20,256")
     b = subparsers.add_parser("bench", help="robot-steps/s and simulated robot-s per wall s at several batch sizes")
     o.model_argument(b, optional=True)
-    b.add_argument("--batches", type=batches, default=list(DEFAULT_BATCHES),
-                   help=f"comma-separated batch sizes (default {','.join(map(str, DEFAULT_BATCHES))})")
+    b.add_argument("--batches", type=batches, default=None,
+                   help=f"comma-separated batch sizes (default {','.join(map(str, DEFAULT_BATCHES))}; --against: "
+                        f"{','.join(map(str, AGAINST_BATCHES))}, the thesis's population beside large batches)")
     o.time_option(b, of="2 s; --table-a1: each example's time in the thesis; the model file's TimeMax is not used")
     b.add_argument("--chunk", type=o.count, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
@@ -94,7 +95,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     _xla.cold_compiles()          # the compile columns are XLA's compile, not a read of the persistent cache
 
-    batches = tuple(args.batches)
+    from cpgjax.experiments.bench import AGAINST_BATCHES, DEFAULT_BATCHES
+
+    batches = tuple(args.batches or (AGAINST_BATCHES if args.against else DEFAULT_BATCHES))
     if args.table_a1:
         return _table_a1(args)
     if args.time is None:

@@ -65,6 +65,14 @@ def chunk_width(model, per_dev: int, chunk: int) -> int:
     return best
 
 
+def padded_size(model, n: int, chunk: int, devices: int) -> tuple[int, int]:
+    """(robots computed, chunk width) for a batch of ``n`` robots on ``devices`` host devices: every device runs
+    whole chunks of :func:`chunk_width`."""
+    per_dev = -(-n // devices)
+    ch = chunk_width(model, per_dev, chunk)
+    return -(-per_dev // ch) * ch * devices, ch
+
+
 def _chunked(model, inputs, chunk, **kw):
     """Evaluate [n_chunks * chunk] robots chunk by chunk (lax.map) on one device.
 
@@ -95,10 +103,7 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
     # in the caller's program, and XLA then fused the robust evaluation's inputs into it differently from
     # a sharded batch (a sweep's run differed from the same run alone in the last bits).
     nd = len(devs)
-    per_dev = -(-N // nd)
-    ch = chunk_width(model, per_dev, chunk)
-    per_dev = -(-per_dev // ch) * ch
-    total = per_dev * nd
+    total, ch = padded_size(model, N, chunk, nd)
     x = (jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), coeffs), var)  # batch-last
     if total > N:
         x = jax.tree.map(lambda a: jnp.concatenate([a, jnp.repeat(a[..., -1:], total - N, -1)], -1), x)
@@ -113,7 +118,8 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
 
 
 def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 256):
-    """Host-side convenience: numpy in, numpy out, one compiled program per call signature.
+    """Host-side convenience: numpy in, numpy out, one compiled program per padded width (:func:`padded_size`)
+    and setting.
 
     coeffs: [N, n_ctrl, 2K+1] (or [n_ctrl, 2K+1] for one robot), or a
     :class:`~cpgjax.episode.policy.ClosedLoop` of N controllers (or of one, without the robot axis).  With
@@ -134,7 +140,11 @@ def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 
         out = {k: (v[..., :n] if k != "traj" else {kk: (vv[..., :n] if kk != "t" else vv) for kk, vv in v.items()})
                for k, v in out.items()}
     else:
-        out = jax.tree.map(np.asarray, _jitted_evaluate(model, time, delta, chunk)(c))
+        # padded here as `evaluate` pads (the last controller repeated), so that every batch size padded to the
+        # same width runs one compiled program
+        pad = padded_size(model, n, chunk, len(jax.devices()))[0] - n
+        c = jax.tree.map(lambda a: np.concatenate([a, np.repeat(a[-1:], pad, 0)]), c) if pad else c
+        out = jax.tree.map(lambda a: np.asarray(a)[..., :n], _jitted_evaluate(model, time, delta, chunk)(c))
     if single:
         out = jax.tree.map(lambda a: a[..., 0] if a.ndim and a.shape[-1] == 1 else a, out)
     return out

@@ -20,6 +20,7 @@ from functools import partial
 import numpy as np
 
 DEFAULT_BATCHES = (1, 20, 256, 1024, 4096)
+AGAINST_BATCHES = (20, 256, 1024)      # --against: the thesis's population of 20 beside large batches
 
 
 def _controllers(model, n, seed=0):
@@ -199,7 +200,7 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
     return rows
 
 
-def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 1.0, chunk: int = 256,
+def bench_against_mjx(model_path: str, batches=AGAINST_BATCHES, time_s: float = 1.0, chunk: int = 256,
                       pipeline: str | None = None):
     """The quadruped in the penalty simulator, MJX (fast settings) and MuJoCo C's threaded rollout.
 
@@ -237,7 +238,8 @@ def bench_against_mjx(model_path: str, batches=(64, 256, 1024), time_s: float = 
                      "robot_steps_per_s": b * steps / run, "robot_s_per_s": b * steps * MJ_TIMESTEP / run})
         pen, mjc, mjx_ = rows[-3]["robot_s_per_s"], rows[-2]["robot_s_per_s"], rows[-1]["robot_s_per_s"]
         print(f"  batch {b}: penalty {pen:,.0f}, MuJoCo C {mjc:,.0f}, MJX {mjx_:,.0f} robot-s/s "
-              f"(penalty/MJX {pen / mjx_:.1f}x, penalty/MuJoCo C {pen / mjc:.2f}x)", flush=True)
+              f"(penalty/MJX {pen / mjx_:.1f}x, penalty/MuJoCo C {pen / mjc:.2f}x; compile: penalty "
+              f"{rows[-3]['compile_s']:.2f} s, MJX {rows[-1]['compile_s']:.2f} s)", flush=True)
     print()
     print_table(rows)
     return rows

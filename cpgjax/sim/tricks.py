@@ -17,6 +17,8 @@ kernels (and so, where a fusion changes, with another rounding in the last bit).
 - :func:`rot_const`, :func:`rot_const_row`, :func:`column`, :func:`mul`: products with constants known when
   the program is traced leave out the terms that are zero (XLA does not fold ``0 * x`` for floats: it would
   change ``0 * inf``).
+- :func:`add_at`: an indexed add of static rows as adds and a stack, not a scatter (a scatter is a kernel of its
+  own that nothing fuses with: the exact step launched 6 kernels fewer at 16 robots, with the same bits).
 """
 
 from __future__ import annotations
@@ -155,3 +157,14 @@ def mul(a, b):
     if isinstance(b, float):
         return a if b == 1.0 else a * b
     return a * b
+
+
+
+def add_at(x, idx, y):
+    """``x.at[idx].add(y)`` along the leading axis for static, distinct indices, without a scatter: the rows of
+    ``x`` that ``idx`` names get ``x[idx[i]] + y[i]``, the others stay ``x``'s."""
+    idx = np.asarray(idx)
+    where = -np.ones(x.shape[0], np.int64)
+    where[idx] = np.arange(len(idx))
+    return jnp.stack([x[k] + y[where[k]] if where[k] >= 0 else x[k] for k in range(x.shape[0])])
+

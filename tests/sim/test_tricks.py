@@ -10,7 +10,7 @@ import pytest
 from simcases import model_from
 
 from cpgjax.sim import initial_state, step
-from cpgjax.sim.tricks import column, gather_sum, keep, mul, rot_const, sum0, take
+from cpgjax.sim.tricks import add_at, column, gather_sum, keep, mul, rot_const, sum0, take
 
 X = jnp.asarray(np.random.default_rng(0).normal(size=(3, 7, 4)), jnp.float32)
 
@@ -45,6 +45,12 @@ def test_keep_is_a_loop_that_never_runs():
     jax.tree.map(lambda a, b: np.testing.assert_array_equal(np.asarray(a), np.asarray(b)), out, tree)
     assert str(jax.make_jaxpr(lambda t: keep(t))(tree)).count("while") == 1
     assert keep(tree, on=False) is tree
+
+
+def test_add_at_adds_to_the_rows_named_without_a_scatter():
+    x, y = X[0], X[1, :3] * 2.0                                     # [7, 4], [3, 4]
+    np.testing.assert_array_equal(np.asarray(add_at(x, [4, 0, 2], y)), np.asarray(x.at[np.array([4, 0, 2])].add(y)))
+    assert "scatter" not in str(jax.make_jaxpr(lambda x: add_at(x, [4, 0, 2], y))(x))
 
 
 BOX = """

@@ -31,7 +31,7 @@ from cpgjax.sim.joints import limit_torques
 from cpgjax.sim.rotation import quat_integrate
 from cpgjax.sim.servo import servo_gains, servo_pi, servo_torques
 from cpgjax.sim.state import ExactState
-from cpgjax.sim.tricks import take
+from cpgjax.sim.tricks import add_at, take
 
 
 def step(model, state, ctrl, var=None):
@@ -56,8 +56,8 @@ def step(model, state, ctrl, var=None):
             torque = None if var is None else var.torque
             tau_s = servo_torques(model, tau_pi, rate[cj], target_rate, gain, implicit=False, torque=torque)
             _, _, kd, tmax = servo_gains(model, gain, implicit=False, torque=torque)
-            tau_j = tau_j.at[cj].add(tau_s)
-            damp = damp.at[cj].add(jnp.where(jnp.abs(tau_s) < tmax, kd, 0.0))
+            tau_j = add_at(tau_j, cj, tau_s)
+            damp = add_at(damp, cj, jnp.where(jnp.abs(tau_s) < tmax, kd, 0.0))
         qM = qM._replace(diag=tuple(None if lvl == 0 else d + dt * take(damp, lv.joint[lvl])
                                     for lvl, d in enumerate(qM.diag)))
     # -qfrc_bias (smooth.rne) with the wrenches negated before the projection: the same numbers as negating
