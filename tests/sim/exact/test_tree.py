@@ -29,21 +29,15 @@ def test_a_robot_rooted_at_a_middle_body_walks_its_joints_the_files_way():
     np.testing.assert_allclose(np.asarray(angle), np.asarray(s.exact.angle), atol=1e-5)
 
 
+def _cube(name: str, extra: str = "") -> str:
+    """A `.wl` body: a 10 cm cube of 1 kg (``extra``: more lines of its block)."""
+    return f"Object {name} {{\n    Type Cube\n    Mass 1\n    Dimensions .1 .1 .1\n{extra}}}\n"
+
+
 @pytest.mark.parametrize("text, match", [
     ("""
 Track A
-Object A {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Object B {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-    Fixed
-}
-Joint J {
+""" + _cube("A") + _cube("B", "    Fixed\n") + """Joint J {
     A 0 0 -.05
     B 0 0 .05
     ControlX
@@ -58,23 +52,7 @@ def test_what_exact_joints_cannot_express_is_a_path_line_error(text, match):
 
 
 def test_a_loop_of_joints_is_a_path_line_error():
-    text = """
-Object A {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Object B {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Object C {
-    Type Cube
-    Mass 1
-    Dimensions .1 .1 .1
-}
-Joint J1 {
+    text = "\n" + _cube("A") + _cube("B") + _cube("C") + """Joint J1 {
     A 0 0 -.05
     B 0 0 .05
     ControlX
