@@ -40,6 +40,13 @@ TINY_TIME = 0.3
 TINY_ROBUST = ["--evaluation", "robust", "--perturb", "replicas=2,fall_survival=on,bristle=3"]
 
 
+# The suite's tiny sweep of the analytic problem: 2 gammas x 2 pocket sizes x cross-over off/on x 2 seeds, random
+# search, amc and CMA-ES, one compiled program shared by experiments/test_sweep.py and analysis/test_report.py (the
+# drivers are the same for every problem; the quadruped's own sweep is in the slow tests).
+TINY_SWEEP = ["sweep", "analytic:sphere:10", "--gamma", "0,1", "--pocket", "0,2", "--crossover", "off,on",
+              "--population", "6", "--seeds", "2", "--baselines", "random,amc3,cmaes", "--quiet"]
+
+
 class TinyRuns:
     """``runs["thesis"]``, ``runs["robust"]``: paths of run files made on first use (read them, or copy them to
     change them: other tests read the same files)."""

@@ -426,7 +426,12 @@ def read_run(path: str | os.PathLike[str]) -> Run:
     for attempt in range(READ_TRIES):
         writer = runlock.holder(p)
         try:
-            run = _read_run(p)
+            try:
+                run = _read_run(p)
+            except (OSError, RuntimeError, KeyError) as e:    # HDF5's own errors of a read torn by a write
+                if writer is None:
+                    raise
+                raise _unreadable(p, "the file's structure", e) from e
         except ResultsError:
             if writer is None or attempt == READ_TRIES - 1:
                 raise

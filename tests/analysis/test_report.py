@@ -3,7 +3,7 @@
 import inspect
 
 import pytest
-from runcases import other_machine
+from runcases import TINY_SWEEP, other_machine
 
 from cpgjax.analysis import report as rep
 from cpgjax.cli import main
@@ -19,9 +19,7 @@ NEEDS_THREE_GAMMAS = {"smaller_gamma_higher_plateau"}
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep") / "tiny"
-    main(["sweep", "analytic:sphere:10", "--gamma", "0,1", "--pocket", "0,2", "--crossover", "off,on",
-          "--population", "6", "--generations", "6", "--seeds", "2", "--baselines", "random,amc3,cmaes",
-          "--out", str(out), "--quiet"])
+    main([*TINY_SWEEP, "--generations", "6", "--out", str(out)])      # one program with experiments/test_sweep.py
     return out
 
 

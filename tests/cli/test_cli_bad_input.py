@@ -200,6 +200,7 @@ def _check_interrupted(proc, err: str, out_path) -> list[str]:
     return argv[1:]
 
 
+@pytest.mark.slow  # a subprocess compiling; fast: Ctrl-C between generations, this file
 def test_ctrl_c_during_compilation_exits_130_and_resume_completes(tmp_path, capsys):
     out = tmp_path / "c.h5"
     # an analytic problem of a shape no other test compiles (a cached program would load before the signal came,

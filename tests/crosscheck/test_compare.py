@@ -4,6 +4,7 @@ import os
 
 import mujoco
 import pytest
+from runcases import TINY_TIME
 
 from cpgjax.cli import main
 
@@ -17,15 +18,16 @@ def test_export_writes_loadable_mjcf(tmp_path, capsys):
 
 
 def test_crosscheck_reports_every_engine_and_writes_plots(tmp_path, capsys):
+    # the suite's tiny episode (0.3 s) and the model's own step and springs: the recorded programs of the tiny
+    # episodes elsewhere (options that change the model: tests/cli/test_pipeline_option.py, crosscheck/test_transfer.py)
     rc = main(["crosscheck", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--random", "2",
-               "--perturbed", "1", "--time", "1", "--no-mjx", "--dt", "4e-4", "--joint-spring", "4e5", "400",
-               "--out", str(tmp_path)])
+               "--perturbed", "1", "--time", str(TINY_TIME), "--no-mjx", "--out", str(tmp_path)])
     out = capsys.readouterr().out
     assert rc == 0
-    assert "Our simulator: step 0.4 ms, pivot springs 400000 N/m, 400 N s/m" in out
-    assert "penalty vs mujoco" in out and "quadruped-trot.ctl" in out
+    assert "Our simulator: step 0.5 ms, pivot springs 300000 N/m, 300 N s/m" in out
+    assert "penalty vs mujoco" in out and "quadruped-trot.ctl" in out and "4 controllers, 0.3 s each" in out
     assert "mujoco vs mujoco at half its step (1 ms)" in out  # the ceiling, on by default
-    assert "penalty vs penalty at half its step (0.2 ms)" in out  # ours against itself
+    assert "penalty vs penalty at half its step (0.25 ms)" in out  # ours against itself
     for f in ("crosscheck.md", "joints.png", "cm_path.png"):
         assert os.path.getsize(tmp_path / f) > 0
 

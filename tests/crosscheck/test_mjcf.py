@@ -16,7 +16,8 @@ def quad():
     return load_model("models/quadruped.wl")
 
 
-@pytest.mark.parametrize("name", ["quadruped", "hexapod", "worm", "car"])
+# the car slow (the longest MJX load; fast: the three walkers)
+@pytest.mark.parametrize("name", ["quadruped", "hexapod", "worm", pytest.param("car", marks=pytest.mark.slow)])
 def test_export_loads_in_mujoco_and_mjx_with_the_same_mass_joints_actuators(name):
     from mujoco import mjx
 

@@ -14,6 +14,7 @@ QUAD = "models/quadruped.wl"
 TROT = "models/quadruped-trot.ctl"
 
 
+@pytest.mark.slow  # two programs; fast: the bump of 0 lanes against flat ground, experiments/test_stability.py
 def test_a_bump_of_zero_is_flat_ground():
     """A bump of 0 is flat ground: the heightfield path gives the flat fast path's episode.
 

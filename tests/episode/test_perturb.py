@@ -32,7 +32,7 @@ def test_ranges_left_off_add_no_field_and_no_record():
     m = load_model("models/quadruped.wl")
     p = Perturbations()
     keys = jax.random.split(jax.random.key(0), 16)
-    var, _ = draw(m, p, keys, 40)
+    var, _ = jax.jit(lambda k: draw(m, p, k, 40))(keys)      # jitted: op by op it compiles each operation
     assert var.torque is None and var.stiffness is None and var.damping is None and var.relief is None
     assert set(p.to_dict()) == {"replicas", "lift", "tilt", "roughness", "friction", "mass", "gain", "jitter",
                                 "bristle", "fall_ends", "fall_zero", "fall_survival"}

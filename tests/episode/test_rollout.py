@@ -29,8 +29,8 @@ def test_quadruped_stands_with_zero_targets(quad):
 
 def test_hand_written_trot_walks_forward_without_turning_over(quad):
     c = read_ctl(TROT, n_dof=8, harmonics=2).coeffs
-    r = simulate(quad, c, time=10.0)
-    assert r["distance"] > 0.5
+    r = simulate(quad, c, time=5.0, record=True)       # the recording program of the two tests around it
+    assert r["distance"] > 0.5                          # 0.687 m in 5 s (cpgjax simulate --time 5)
     assert not r["fallen"] and not r["diverged"]
     assert 0 < r["fitness"] <= r["speed"] + 1e-6  # eq. 4.6 never above the mean speed
 

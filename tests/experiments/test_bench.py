@@ -28,6 +28,7 @@ def test_table_a1_bad_input(capsys):
     assert "--json is only for --table-a1" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # a program of its own; fast: bench --table-a1, this file
 def test_compile_time_is_the_compile_alone(capsys):
     """The compile time is the ahead-of-time compile, timed alone: positive, and not a difference of calls."""
     from cpgjax.experiments.bench import print_table, row

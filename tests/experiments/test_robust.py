@@ -28,21 +28,30 @@ def robust():
 
 
 @pytest.fixture(scope="module")
-def robust_run(robust, tmp_path_factory):
-    path = tmp_path_factory.mktemp("robust") / "r.h5"
+def robust_run(tiny_runs):
+    """The suite's tiny robust run (tests/runcases.py: TINY_GA with TINY_ROBUST, made by `cpgjax evolve`), whose
+    compiled GA program the transfer and validation tests share."""
+    return read_run(tiny_runs["robust"])
+
+
+# the tiny robust run's settings (tests/runcases.py: TINY_GA), as the GA's config
+TINY = GAConfig(population=6, generations=2, pocket=2, seed=3)
+
+
+def test_pocketed_elites_are_rescored_with_fresh_perturbations(robust, robust_run, tmp_path):
+    """No mutation: every individual of generation g+1 is a copy of a pocketed one of generation g, scored again.
+    (mu_max is a traced setting of the GA: the tiny robust run's compiled program.)"""
+    path = tmp_path / "copies.h5"
     run_ga(robust, COPY, path)
-    return read_run(path)
-
-
-def test_pocketed_elites_are_rescored_with_fresh_perturbations(robust_run):
-    g, f = robust_run.genomes, robust_run.fitness
-    for gen in range(1, robust_run.completed):
+    run = read_run(path)
+    g, f = run.genomes, run.fitness
+    for gen in range(1, run.completed):
         for i in range(g.shape[1]):
             parents = np.nonzero((g[gen - 1] == g[gen, i]).all(-1))[0]
             assert len(parents), "with mu_max 0 every child is a copy of a pocketed parent"
             # the same genome, scored again: another draw of the perturbations, another score
             assert np.all(f[gen - 1, parents] != f[gen, i])
-    assert robust_run.meta["evaluation"] == "robust" and robust_run.meta["replicas"] == 2
+    assert run.meta["evaluation"] == "robust" and run.meta["replicas"] == 2
 
 
 def test_the_thesis_evaluation_scores_a_copy_exactly_as_its_parent(tmp_path):
@@ -56,9 +65,11 @@ def test_the_thesis_evaluation_scores_a_copy_exactly_as_its_parent(tmp_path):
 
 
 def test_deterministic_given_the_seed_and_resumable_bit_for_bit(robust, robust_run, tmp_path):
+    """The run made again through the library, stopped after a generation and resumed, is the command line's run
+    bit for bit."""
     again = tmp_path / "again.h5"
-    run_ga(robust, COPY, again, stop_after=1)
-    run_ga(robust, COPY, again, resume=True)
+    run_ga(robust, TINY, again, stop_after=1)
+    run_ga(robust, TINY, again, resume=True)
     same_rows(read_run(again), robust_run)
 
 

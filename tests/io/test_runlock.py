@@ -106,3 +106,33 @@ def test_two_real_processes_one_file(tmp_path, capsys):
                  "--quiet", "--out", str(out), "--overwrite"]) == 0       # the lock left by kill -9 did not block
     assert read_attrs(out)["seed"] == 5 and read_run(out).completed == 5
     assert not os.path.exists(runlock.lock_path(out))
+
+
+def test_a_read_torn_by_hdf5_while_a_writer_holds_the_file_is_tried_again(tmp_path, monkeypatch):
+    """HDF5 itself may fail on a file caught mid-write (``RuntimeError: ... addr overflow``, seen under load);
+    with a writer at work the read is tried again, without one the error is the file's."""
+    from cpgjax.io import results
+
+    path = str(tmp_path / "r.h5")
+    real, calls = results._read_run, []
+
+    def torn_once(p):
+        calls.append(p)
+        if len(calls) == 1:
+            raise RuntimeError("Object specific failed (addr overflow, addr = 150336, size = 2616, eoa = 142536)")
+        return real(p)
+
+    from cpgjax.experiments.evolve import run_ga
+    from cpgjax.optim.factory import make_problem
+    from cpgjax.optim.ga import GAConfig
+
+    # the first writer's run above, two generations (its compiled program)
+    run_ga(make_problem("analytic:sphere:4"), GAConfig(population=8, generations=2), path)
+    monkeypatch.setattr(results, "_read_run", torn_once)
+    monkeypatch.setattr(results.time, "sleep", lambda s: None)
+    with runlock.hold(path):
+        run = read_run(path)
+    assert run.completed == 2 and len(calls) == 2 and run.writer is not None
+    calls.clear()
+    with pytest.raises(RuntimeError):                      # nobody writes it: nothing to wait for
+        read_run(path)

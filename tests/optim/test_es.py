@@ -22,7 +22,13 @@ PROBLEM = "analytic:diverging:6"
 SETTINGS = {"samples": 1200, "population": 20, "chunk": 20}
 
 
-@pytest.mark.parametrize("method", es.METHODS)
+# cmaes and openes in the fast suite (a covariance and a gradient method), the three others slow: the
+# strategies share one adapter (optim/es.py), each its own compiled program
+FAST_METHODS = ("cmaes", "openes")
+
+
+@pytest.mark.parametrize("method", [m if m in FAST_METHODS else pytest.param(m, marks=pytest.mark.slow)
+                                    for m in es.METHODS])
 def test_each_method_finds_the_optimum_of_a_shifted_sphere(method):
     """From the start genome (all zeros here), 1200 evaluations bring the mean of the search near the optimum."""
     problem = analytic_problem(PROBLEM)
@@ -47,7 +53,7 @@ def _scores(fitness, diverged):
     return {"fitness": jnp.asarray(fitness, jnp.float32), "diverged": jnp.asarray(diverged, bool)}
 
 
-@pytest.mark.parametrize("method", ["cmaes", "snes"])
+@pytest.mark.parametrize("method", ["cmaes", pytest.param("snes", marks=pytest.mark.slow)])
 def test_an_optimum_outside_the_box_brings_the_search_to_its_face(method):
     """Genes 0 and 2 want to leave the box: the genomes evaluated stay in it, the search settles on its faces
     with a small step size (no flat region outside the box for the step size to grow in)."""
@@ -80,7 +86,8 @@ def test_diverged_samples_never_pull_the_search():
     assert all(np.all(np.isfinite(np.asarray(u))) for u in a if jnp.issubdtype(u.dtype, jnp.floating))
 
 
-@pytest.mark.parametrize("method", es.METHODS)
+@pytest.mark.parametrize("method", [m if m in FAST_METHODS else pytest.param(m, marks=pytest.mark.slow)
+                                    for m in es.METHODS])
 def test_stop_and_resume_equals_uninterrupted(tmp_path, method):
     problem = analytic_problem(PROBLEM)        # diverged samples along the way, too
     cfg = es.ESConfig(method=method, seed=3, **SETTINGS)

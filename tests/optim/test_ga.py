@@ -180,6 +180,8 @@ def test_init_population():
     assert np.all(pop.std(axis=0) > 0.02)
 
 
+# slow: four GA variants, two programs; fast: a sweep's run (the vmapped GA) equals it made alone (test_sweep.py)
+@pytest.mark.slow
 def test_reproduce_vmaps_over_runs():
     """Several GA variants in one program: vmapped == one call per run, bit for bit."""
     n, g = N, G

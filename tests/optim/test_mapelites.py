@@ -40,7 +40,9 @@ def cfg(**kw):
     return me.MEConfig(**{**base, **kw})
 
 
-@pytest.mark.parametrize("method", me.METHODS)
+# the iso-line variation slow: a program of its own, the same insertion and grid (fast: MAP-Elites')
+@pytest.mark.parametrize("method", [m if m == "map-elites" else pytest.param(m, marks=pytest.mark.slow)
+                                    for m in me.METHODS])
 def test_mapelites_fills_every_cell_and_converges_to_each_cells_optimum(tmp_path, method):
     """25 cells, each with optimum 1: after 2560 evaluations every cell is filled, every elite is within
     0.02 of its cell's optimum (the random first generations: ~0.85 at best) and lies in its own cell."""

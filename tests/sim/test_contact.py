@@ -1,6 +1,7 @@
 """Ground contact (cpgjax/sim/contact.py): eq. 3.7, static and dynamic friction, and a score that is not chaotic."""
 
 import numpy as np
+import pytest
 from simcases import block_on_slope, box
 
 from cpgjax.episode.batch import simulate
@@ -44,6 +45,7 @@ def test_a_body_sinks_no_deeper_than_a_few_millimetres_when_dropped():
     assert r["depth"] < 0.01
 
 
+@pytest.mark.slow  # 3 s of the quadruped on a ramp; fast: a block held on a slope below its friction angle, this file
 def test_the_quadruped_standing_on_a_gentle_ramp_does_not_creep():
     """Below its friction angle (tan 0.1 << mu 2.5) the standing robot holds: it creeps < 1 mm/s."""
     from cpgjax.io.wl import load_model
@@ -56,6 +58,7 @@ def test_the_quadruped_standing_on_a_gentle_ramp_does_not_creep():
     assert not r["fallen"] and creep < 1e-3, f"creeps {creep * 1e3:.3f} mm/s"
 
 
+@pytest.mark.slow  # three steps, three programs; fast: a dropped body sinks no deeper than a few mm, this file
 def test_the_bounce_of_a_dropped_box_converges_as_the_step_shrinks():
     """B, not dt, sets the restitution: a 1 kg box dropped from 0.5 m (B = 1e3 over-damps it on 4 corners:
     damping ratio 3.2) bounces (almost) nothing, and the bounce shrinks with the step.  The old locally
@@ -71,6 +74,7 @@ def test_the_bounce_of_a_dropped_box_converges_as_the_step_shrinks():
     assert abs(bounce[2] - bounce[1]) <= abs(bounce[1] - bounce[0]), bounce
 
 
+@pytest.mark.slow  # 64 replays of 10 s; fast: the trot walks (episode/test_rollout.py)
 def test_a_walking_score_is_not_chaotic():
     """The trot with every gene moved by N(0, 1e-6): 64 replays of 10 s score within sd 0.003, none falls.
 

@@ -130,6 +130,7 @@ def test_a_sliding_box_decelerates_at_mu_g_and_rests_at_eq_3_7s_depth_and_the_gr
     np.testing.assert_allclose(depth, 10.0 * g / (1e5 * 4), rtol=0.02)
 
 
+@pytest.mark.slow  # a program per pipeline; fast: the stages against MuJoCo C (test_stages.py), the pendulum, this file
 def test_the_two_pipelines_agree_on_a_servo_rig():
     """A servo-driven arm on a fixed block follows a sinusoid: the joint's path agrees across the pipelines
     (the springs stretch by a fraction of a millimetre, so the exact path is the limit of theirs)."""

@@ -8,14 +8,17 @@ import pytest
 from simcases import model_from
 
 from cpgjax.errors import DescriptionError
-from cpgjax.sim import initial_state, step
+from cpgjax.sim import initial_state
 from cpgjax.sim.exact.tree import build_levels, build_tree
 
 
 def test_a_robot_rooted_at_a_middle_body_walks_its_joints_the_files_way():
-    """The worm is tracked at its middle segment: the tree walks two joints from child to parent; the angles
-    the state keeps are still the file's (body_b relative to body_a), as the bodies' rotations measure them."""
+    """The worm is tracked at its middle segment: the tree walks two joints from child to parent; the bodies the
+    kinematics (MuJoCo's stage, `smooth.kinematics`) places from the state's angles measure those angles as the
+    file's (body_b relative to body_a).  Its bodies against MuJoCo C's: tests/sim/exact/test_stages.py."""
     from cpgjax.io.wl import load_model
+    from cpgjax.sim.exact.levels import to_levels
+    from cpgjax.sim.exact.smooth import kinematics
     from cpgjax.sim.joints import joint_angles
     from cpgjax.sim.rotation import quat_to_mat
 
@@ -23,10 +26,16 @@ def test_a_robot_rooted_at_a_middle_body_walks_its_joints_the_files_way():
     t = m.exact.tree
     assert t.roots[0] == m.track and (t.sign < 0).sum() >= 1
     s = initial_state(m, 1)
-    s = s._replace(exact=s.exact._replace(angle=s.exact.angle + jnp.linspace(-0.3, 0.3, m.nj)[:, None]))
-    s = jax.jit(lambda s: step(m, s, (s.exact.angle[m.ctrl_joint], jnp.zeros((m.n_ctrl, 1)))))(s)
-    angle, _, _ = joint_angles(m, quat_to_mat(s.q), s.w)
-    np.testing.assert_allclose(np.asarray(angle), np.asarray(s.exact.angle), atol=1e-5)
+    roots = np.asarray(m.exact.levels.bodies[0])
+    angle = s.exact.angle + jnp.linspace(-0.3, 0.3, m.nj)[:, None]
+
+    @jax.jit      # the kinematics alone: a small program (the whole exact step compiles for seconds)
+    def measured(angle):
+        root = (s.x[:, roots], s.q[:, roots], s.v[:, roots], s.w[:, roots])
+        _, q, _, w = kinematics(m, root, to_levels(m, angle), to_levels(m, jnp.zeros_like(angle)))
+        return joint_angles(m, quat_to_mat(q), w)[0]
+
+    np.testing.assert_allclose(np.asarray(measured(angle)), np.asarray(angle), atol=1e-5)
 
 
 def _cube(name: str, extra: str = "") -> str:
