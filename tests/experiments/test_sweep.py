@@ -274,7 +274,7 @@ def test_sweep_killed_mid_run_resumes_to_the_uninterrupted_result(tmp_path):
     out = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-m", "cpgjax.cli", *argv(out)], stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
-    probe = out / "ga_n6_mu0.2_g0_p0_xoff" / "s0.h5"
+    probe = out / "ga_n4_mu0.2_g0_p0_xoff" / "s0.h5"
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
@@ -375,10 +375,10 @@ def test_new_seeds_scored_otherwise_than_the_sweep_are_refused(tmp_path, capsys)
     assert "(use the sweep's settings, or another --out)" in err
     assert cli.main([*base, "--seeds", "1:2", "--ray"]) == 2        # refused before any Ray task starts
     assert "cannot add runs to this sweep: --evaluation thesis" in capsys.readouterr().err
-    assert sorted(sweepdir.find_runs(out)["ga_n6_mu0.2_g0_p0_xoff"]) == [os.path.join(out, "ga_n6_mu0.2_g0_p0_xoff",
+    assert sorted(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == [os.path.join(out, "ga_n4_mu0.2_g0_p0_xoff",
                                                                                       "s0.h5")]
     assert cli.main([*base, *robust, "--seeds", "1:2"]) == 0     # the sweep's own settings add it
-    assert len(sweepdir.find_runs(out)["ga_n6_mu0.2_g0_p0_xoff"]) == 2
+    assert len(sweepdir.find_runs(out)["ga_n4_mu0.2_g0_p0_xoff"]) == 2
 
 
 def test_a_run_file_another_writer_holds_stops_the_sweep_before_it_writes(tmp_path, capsys):
