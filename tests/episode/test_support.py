@@ -61,6 +61,6 @@ def test_projection_stability_is_distance_over_height_batched():
     p = jnp.asarray(np.asarray(SQUARE, np.float32).T)[:, :, None] * jnp.ones((1, 1, 2))   # [2, 4, B=2]
     down = jnp.asarray([[True, True], [True, True], [True, False], [True, True]])
     cm = (jnp.asarray([0.5, 0.25]), jnp.asarray([0.5, 0.25]), jnp.asarray([0.25, 0.5]))
-    s, n = projection_stability(p[0], p[1], down, cm)
+    s, n = jax.jit(projection_stability)(p[0], p[1], down, cm)     # op by op: a compile for each operation
     np.testing.assert_allclose(np.asarray(s), [0.5 / 0.25, 0.25 / 0.5], rtol=1e-6)
     assert np.asarray(n).tolist() == [4, 3]

@@ -96,6 +96,7 @@ def test_a_walking_score_is_not_chaotic():
 def test_the_friction_bristle_holds_with_its_spring_and_slides_at_the_coulomb_cap():
     """On an immovable body (K = 0) at rest the implicit friction is exactly the bristle spring ``-k z``
     (``FrictionSpring k b``), up to ``mu f_n`` with ``f_n = A d``; beyond it the vertex slides with ``mu_d f_n``."""
+    import jax
     import jax.numpy as jnp
 
     from cpgjax.sim.contact import contact_forces
@@ -104,15 +105,19 @@ def test_the_friction_bristle_holds_with_its_spring_and_slides_at_the_coulomb_ca
 
     m = box(z=0.049, friction=0.8, extra="FrictionSpring 2e4 50").replace(fixed=np.array([True]))
     assert (m.friction_k, m.friction_b) == (2e4, 50.0)
-    s = initial_state(m, 2)
-    R = quat_to_mat(s.q)
-    r, p, pv = point_kinematics(m, s, R)
     z = np.zeros((3, len(m.ct_pt), 2))
     z[0, :, 0], z[1, :, 1] = 1e-4, 0.02       # robot 0: 0.1 mm along x (sticks); robot 1: 2 cm along y
-    anchor = p[:, m.ct_pt] - jnp.asarray(z, p.dtype)
-    zero = jnp.zeros((3, m.nb, 2))
-    f, depth, new_anchor, fn = (np.asarray(x) for x in contact_forces(
-        m, R, r, p, pv, zero, zero, anchor, jnp.zeros((len(m.ct_pt), 2))))
+
+    @jax.jit        # one program (op by op: a compile for each operation)
+    def forces(z):
+        s = initial_state(m, 2)
+        R = quat_to_mat(s.q)
+        r, p, pv = point_kinematics(m, s, R)
+        anchor = p[:, m.ct_pt] - z
+        zero = jnp.zeros((3, m.nb, 2))
+        return (anchor, *contact_forces(m, R, r, p, pv, zero, zero, anchor, jnp.zeros((len(m.ct_pt), 2))))
+
+    anchor, f, depth, new_anchor, fn = (np.asarray(x) for x in forces(jnp.asarray(z, jnp.float32)))
     down = depth[:, 0] > 0                                     # the four bottom corners, 1 mm deep
     assert down.sum() == 4
     np.testing.assert_allclose(fn[down], 1e5 * 1e-3, rtol=1e-3)

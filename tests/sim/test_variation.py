@@ -69,8 +69,9 @@ def test_initial_tilt_and_lift_turn_the_whole_robot_rigidly():
     m = load_model("models/quadruped.wl")
     var = Variation.nominal(m, 2)._replace(tilt=jnp.asarray([[0.05, 0.0], [0.0, -0.03]]),
                                             lift=jnp.asarray([0.0, 0.004]))
-    s0, s1 = initial_state(m, 2), varied_initial_state(m, var)
-    R0, R1 = np.asarray(quat_to_mat(s0.q)), np.asarray(quat_to_mat(s1.q))
+    s0 = initial_state(m, 2)
+    s1 = jax.jit(lambda v: varied_initial_state(m, v))(var)        # op by op: a compile for each operation
+    R0, R1 = np.asarray(quat_to_mat(s0.q)), np.asarray(jax.jit(quat_to_mat)(s1.q))
     # every body turned by the same rotation: relative orientations (joint angles) unchanged
     for b in range(2):
         rel0 = np.einsum("jik,jlk->ilk", R0[:, :, :, b], R0[:, :, m.track:m.track + 1, b].repeat(m.nb, 2))
