@@ -58,15 +58,16 @@ def pytest_sessionfinish(session, exitstatus):
 # module-scoped fixtures) they start first, so that no long file is left alone at the end while the other
 # worker idles.  Only the order changes: a stale list costs time, never a result.  Left off on purpose:
 # analysis/test_report.py, which then runs late and loads the tiny sweep's program that experiments/test_sweep.py
-# (first) compiled, rather than compiling it at the same time in the other worker.
+# (first) compiled, rather than compiling it at the same time in the other worker.  experiments/test_robust.py and
+# render/test_render.py come early for the same reason: they make the tiny robust and thesis runs, whose GA
+# programs the validation, transfer and replay files then load.
 HEAVY_FIRST = (
-    "experiments/test_sweep.py", "sim/test_contact.py", "episode/test_rollout.py", "optim/test_es.py",
-    "crosscheck/test_mjcf.py", "optim/test_ga.py", "sim/test_variation.py", "sim/exact/test_exact_step.py",
-    "episode/test_policy.py", "render/test_render.py", "cli/test_repertoire.py", "experiments/test_evolve.py",
-    "experiments/test_robust.py", "experiments/test_stability.py",
-    "optim/test_mapelites.py", "test_models.py", "episode/test_descriptors.py", "cli/test_cli_bad_input.py",
-    "experiments/test_validate.py", "crosscheck/test_compare.py", "experiments/test_bench.py",
-    "episode/test_sensors.py", "crosscheck/test_transfer.py",
+    "experiments/test_sweep.py", "experiments/test_robust.py", "render/test_render.py", "crosscheck/test_mjcf.py",
+    "episode/test_rollout.py", "cli/test_repertoire.py", "optim/test_ga.py", "sim/test_variation.py",
+    "episode/test_policy.py", "sim/exact/test_exact_step.py", "experiments/test_evolve.py", "optim/test_es.py",
+    "test_models.py", "episode/test_descriptors.py", "optim/test_mapelites.py", "experiments/test_validate.py",
+    "sim/test_contact.py", "cli/test_replay.py", "experiments/test_stability.py", "io/test_runlock.py",
+    "crosscheck/test_compare.py", "episode/test_sensors.py", "cli/test_cli_bad_input.py", "optim/test_baselines.py",
 )
 
 
