@@ -1,4 +1,4 @@
-"""``cpgjax follow --ctl``: walk paths with one closed-loop gait that reads a commanded turning rate (beyond the thesis).
+"""``cpgjax follow --ctl``: walk paths with a closed-loop gait that reads a commanded turning rate (beyond the thesis).
 
 The gait alone, as a robot would walk it: the whole path is one episode of the one controller, and the command
 it reads is computed inside the episode's scan, every step, from the robot's own pose (the heading error to the

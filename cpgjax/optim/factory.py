@@ -15,10 +15,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.episode import steering
 from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
-from cpgjax.episode import steering
 from cpgjax.episode.perturb import Perturbations, commands, draw, noise_key, roughened
 from cpgjax.episode.policy import Family, from_control, from_genomes, from_table, parse_controller, to_genome
 from cpgjax.episode.policy import base_genome as policy_base
