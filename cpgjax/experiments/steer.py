@@ -74,7 +74,7 @@ def walks(model_path: str, ctls: list[str], paths: list[str], *, time: float = T
                     "fell": None if finished or j_fall is None else float(t[j_fall]),
                     "reached": int(wp[end]), "waypoints": len(pts[p]), "mean_error": float(err.mean()),
                     "max_error": float(err.max()), "tilt_max": float(np.arccos(np.clip(up[: end + 1], -1, 1)).max()),
-                    "command_mean_abs": float(np.abs(np.asarray(tr["command"][1: end + 1, b])).mean()),
+                    "command_mean_abs": float(np.abs(np.asarray(tr["command"][: end + 1, b])).mean()),
                     "trajectory": xy.tolist(), "waypoint_xy": pts[p].tolist(), "gain": gain, "limit": limit,
                     "pipeline": model.pipeline})
     if video:
