@@ -30,7 +30,7 @@ from cpgjax.io.wl import load_model
 
 TIME = 120.0     # s: the longest walk
 GAIN = steering.GAIN
-LIMIT = 0.4      # rad/s: the command's range, the robust evaluation's ``command`` the gaits were evolved with
+LIMIT = 0.3      # rad/s: the command's range, the robust evaluation's ``command`` of docs/closed-loop.md's recipe
 
 
 def controller(path: str, model):
