@@ -3,7 +3,8 @@
 ``repertoire``: MAP-Elites into a run file (:mod:`cpgjax.experiments.repertoire`), ``repertoire-plot``: its
 figure (:mod:`cpgjax.plots.repertoire`); ``adapt``: Intelligent
 Trial and Error on a damaged robot (:mod:`cpgjax.experiments.adapt`); ``follow``: walk a path by choosing,
-every gait cycle, a gait of the repertoire (:mod:`cpgjax.experiments.follow`).  Every default comes from
+every gait cycle, a gait of the repertoire (:mod:`cpgjax.experiments.follow`), or with one closed-loop gait that
+reads a turning command set from its own pose (``--ctl``, :mod:`cpgjax.experiments.steer`).  Every default comes from
 :class:`~cpgjax.optim.mapelites.MEConfig` and the other configuration dataclasses.
 """
 
