@@ -183,7 +183,8 @@ def controller_option(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--controller", type=controller, default=None, metavar="FAMILY",
                    help=f"{CONTROLLER_SYNTAX}: cpg, the thesis's open-loop CPG (default); pmtg, the CPG modulated by "
-                        f"a linear feedback policy reading the sensors (groups {', '.join(GROUPS)}: all by default) "
+                        f"a linear feedback policy reading the sensors (groups {', '.join(GROUPS)}: all but steer by "
+                        "default) "
                         "-- docs/evolution.md")
 
 

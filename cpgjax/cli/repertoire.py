@@ -3,7 +3,8 @@
 ``repertoire``: MAP-Elites into a run file (:mod:`cpgjax.experiments.repertoire`), ``repertoire-plot``: its
 figure (:mod:`cpgjax.plots.repertoire`); ``adapt``: Intelligent
 Trial and Error on a damaged robot (:mod:`cpgjax.experiments.adapt`); ``follow``: walk a path by choosing,
-every gait cycle, a gait of the repertoire (:mod:`cpgjax.experiments.follow`).  Every default comes from
+every gait cycle, a gait of the repertoire (:mod:`cpgjax.experiments.follow`), or with one closed-loop gait that
+reads a turning command set from its own pose (``--ctl``, :mod:`cpgjax.experiments.steer`).  Every default comes from
 :class:`~cpgjax.optim.mapelites.MEConfig` and the other configuration dataclasses.
 """
 
@@ -149,23 +150,42 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_adapt)
 
     p = subparsers.add_parser(
-        "follow", help="walk a path by choosing, every gait cycle, a gait of the repertoire",
-        description="Every gait cycle the robot simulates the --lookahead gaits of the repertoire (a speed-turn "
-                    "one) whose turning rate best reduces the heading error to the next waypoint, from the state "
-                    "it is in, for one cycle, and walks the one that leaves the least path to walk without its "
-                    "body tilting past --safe-tilt (docs/repertoire.md, Steering).")
-    o.model_argument(p, help="robot description (.wl): the repertoire's")
-    p.add_argument("--repertoire", required=True, metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
-    p.add_argument("--path", required=True, metavar="SPEC",
-                   help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m)")
-    p.add_argument("--cycles", type=o.count, default=None, help="most gait cycles (default: 40)")
+        "follow", help="walk a path: with a gait that reads a turning command (--ctl), or a repertoire's gaits",
+        description="--ctl: the closed-loop gait alone walks each --path in one episode, the turning rate it reads "
+                    "set every step from its own pose (the heading error to the next waypoint times --gain, "
+                    "clipped to --limit; docs/closed-loop.md, Steering). --repertoire: every gait cycle the robot "
+                    "simulates the --lookahead gaits of the repertoire (a speed-turn one) whose turning rate best "
+                    "reduces the heading error to the next waypoint, from the state it is in, for one cycle, and "
+                    "walks the one that leaves the least path to walk without its body tilting past --safe-tilt "
+                    "(docs/repertoire.md, Steering).")
+    o.model_argument(p, help="robot description (.wl): the repertoire's, or the controllers'")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--repertoire", metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
+    src.add_argument("--ctl", action="append", metavar="CTL",
+                     help="a closed-loop controller that reads the command (.ctl); repeat for several, each walks "
+                          "every --path")
+    p.add_argument("--path", required=True, action="append", metavar="SPEC",
+                   help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m); "
+                        "with --ctl repeat for several")
+    p.add_argument("--cycles", type=o.count, default=None, help="--repertoire: most gait cycles (default: 40)")
     p.add_argument("--lookahead", type=o.int_in(0, 4096), default=None, metavar="K",
                    help="candidate gaits simulated ahead every cycle, in one batch (default: 64); 0: no "
                         "look-ahead, the gait whose turning rate is nearest the wanted one")
     p.add_argument("--safe-tilt", type=o.float_in(0.0, math.pi, lo_open=True, what="an angle in (0, pi] rad"),
                    default=None, metavar="RAD",
                    help="a candidate whose body tilts more during the cycle is not taken (default: 0.8 rad)")
-    p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk")
+    from cpgjax.experiments.steer import GAIN, LIMIT, TIME
+
+    p.add_argument("--time", type=o.float_in(0.0, 3600.0, lo_open=True, what="seconds in (0, 3600]"), default=None,
+                   metavar="SECONDS", help=f"--ctl: the longest walk (default {TIME:g} s)")
+    p.add_argument("--gain", type=o.float_in(0.0, 100.0, lo_open=True, what="a gain in (0, 100] 1/s"), default=None,
+                   help=f"--ctl: commanded turning rate per rad of heading error (default {GAIN:g} 1/s)")
+    p.add_argument("--limit", type=o.float_in(0.0, 10.0, lo_open=True, what="a rate in (0, 10] rad/s"),
+                   default=None, metavar="RAD/S",
+                   help=f"--ctl: the command's range, that of the evolution's --perturb command=R "
+                        f"(default {LIMIT:g} rad/s)")
+    o.pipeline_option(p)
+    p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk (--ctl: one controller, one path)")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
 
@@ -296,6 +316,15 @@ def cmd_follow(args: argparse.Namespace) -> int:
     for f in (args.out, args.video):
         if f:
             o.check_output_file(f, "--out" if f == args.out else "--video")
+    if args.ctl:
+        return _follow_ctl(args)
+    ctl_only = [f"--{n}" for n in ("time", "gain", "limit", "pipeline") if getattr(args, n) is not None]
+    if ctl_only:
+        raise ValueError(f"{', '.join(ctl_only)}: with --ctl only (a repertoire's gaits run for whole cycles, on its "
+                         "pipeline)")
+    if len(args.path) > 1:
+        raise ValueError("--path: a repertoire walks one path at a time")
+    args.path = args.path[0]
     from cpgjax.experiments import follow as fw
 
     r = follow(args.model, args.repertoire, args.path, cycles=args.cycles, video=args.video,
@@ -305,6 +334,27 @@ def cmd_follow(args: argparse.Namespace) -> int:
     print(f"{args.path}: {state} in {r['time']:.1f} s "
           f"({r['cycles']} gait cycles), mean distance from the path {r['mean_error']:.3f} m, "
           f"waypoints {r['reached']} of {r['waypoints']}")
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(r, f, indent=1)
+    return 0
+
+
+def _follow_ctl(args: argparse.Namespace) -> int:
+    from cpgjax.experiments import steer
+
+    for n in ("cycles", "lookahead", "safe_tilt"):
+        if getattr(args, n) is not None:
+            raise ValueError(f"--{n.replace('_', '-')}: with --repertoire only")
+    r = steer.walks(args.model, args.ctl, args.path, time=args.time or steer.TIME, gain=args.gain or steer.GAIN,
+                    limit=args.limit or steer.LIMIT, pipeline=args.pipeline, video=args.video)
+    for w in r:
+        state = ("finished" if w["finished"] else f"fell at {w['fell']:.1f} s" if w["fell"] is not None
+                 else "did not finish")
+        print(f"{w['ctl']} {w['path']}: {state}" + (f" in {w['time']:.1f} s" if w["finished"] else "")
+              + f", mean distance from the path {w['mean_error']:.3f} m (largest {w['max_error']:.3f} m), "
+                f"waypoints {w['reached']} of {w['waypoints']}, largest tilt {w['tilt_max']:.2f} rad")
+    print(f"{sum(w['finished'] for w in r)} of {len(r)} walks finished without a fall")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)

@@ -27,7 +27,11 @@ episodes, each with fresh perturbations drawn per robot from its own key:
   field;
 * (closed-loop controllers, :mod:`cpgjax.episode.policy`) the sensors: noise of ``noise`` times each sensor's
   scale (standard deviation), drawn per robot and step, and a ``latency`` of 0 or 1 step between the observation
-  and the action.
+  and the action;
+* (closed-loop controllers that read the ``command``) the task: a commanded turning rate ``U(-command, command)``
+  rad/s for the first half of the episode and another for the second (:func:`commands`,
+  :class:`cpgjax.episode.steering.Schedule`), the episode scored by how well it follows them
+  (:func:`cpgjax.episode.steering.tracking_fitness`) instead of eq. 4.6.
 
 **Domain randomisation** is the named preset :data:`PRESETS` ``domain`` (``--perturb preset=domain``): every range
 above at once, wide (docs/evolution.md); keys given beside it override its values.
@@ -78,6 +82,7 @@ class Perturbations:
     relief: float = 0.0        # share: the rough field's heights scaled by 1 - U(0, relief) per episode
     noise: float = 0.0         # sensor noise, in each sensor's scale (sd; closed-loop controllers)
     latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
+    command: float = 0.0       # rad/s: range of the commanded turning rate (0: no command, eq. 4.6's score)
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -86,7 +91,7 @@ class Perturbations:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
         for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "torque",
-                  "stiffness", "damping", "relief", "noise"):
+                  "stiffness", "damping", "relief", "noise", "command"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -117,7 +122,8 @@ class Perturbations:
 
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
-LATER = {"torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0, "latency": 0}
+LATER = {"torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0, "latency": 0,
+         "command": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the
@@ -176,6 +182,17 @@ NOISE_STREAM = 13   # folded into a robot's key: the key of its sensor noise (th
 def noise_key(keys: jax.Array) -> jax.Array:
     """[N, 2] uint32: the raw key of each robot's sensor noise, from its episode's key [N]."""
     return jax.vmap(lambda k: jax.random.key_data(jax.random.fold_in(k, NOISE_STREAM)))(keys)
+
+
+COMMAND_STREAM = 14   # folded into a robot's key: the key of its commanded turning rates
+
+
+def commands(keys: jax.Array, limit: float) -> jax.Array:
+    """[2, N] the commanded turning rates of each robot's two halves of the episode, ``U(-limit, limit)`` rad/s,
+    from its episode's key [N] (:data:`COMMAND_STREAM`)."""
+    c = jax.vmap(lambda k: jax.random.uniform(jax.random.fold_in(k, COMMAND_STREAM), (2,), jnp.float32,
+                                              -1.0, 1.0))(keys)
+    return jax.lax.optimization_barrier(limit * c.T)
 
 
 def draw(model, p: Perturbations, keys: jax.Array, n_genes: int) -> tuple[Variation, jax.Array]:

@@ -52,7 +52,7 @@ class Family:
     """A closed-loop controller family: which sensor groups its policy reads (:data:`sensors.GROUPS` order)."""
 
     name: str = "pmtg"
-    inputs: tuple[str, ...] = sensors.GROUPS
+    inputs: tuple[str, ...] = sensors.DEFAULT_GROUPS
     outputs: tuple[str, ...] = OUTPUTS
 
     def __post_init__(self) -> None:
@@ -68,8 +68,8 @@ class Family:
 
     @property
     def spec(self) -> str:
-        """The command-line text (``pmtg``, or ``pmtg:tilt+contact+bias`` when not every group is read)."""
-        return self.name if self.inputs == sensors.GROUPS else f"{self.name}:{'+'.join(self.inputs)}"
+        """The command-line text (``pmtg``, or ``pmtg:tilt+contact+bias`` when not the default groups)."""
+        return self.name if self.inputs == sensors.DEFAULT_GROUPS else f"{self.name}:{'+'.join(self.inputs)}"
 
     def input_sizes(self, model) -> list[tuple[str, int]]:
         n = sensors.sizes(model)
@@ -107,7 +107,7 @@ def parse_controller(text: str | None) -> Family | None:
         raise ValueError(f"unknown controller {text!r}; expected {CONTROLLER_SYNTAX}")
     if name == "cpg":
         raise ValueError(f"controller {text!r}: the open-loop CPG takes no inputs; expected {CONTROLLER_SYNTAX}")
-    groups = tuple(g.strip().lower() for g in rest.split("+")) if rest else sensors.GROUPS
+    groups = tuple(g.strip().lower() for g in rest.split("+")) if rest else sensors.DEFAULT_GROUPS
     return Family(name, groups)
 
 
@@ -128,22 +128,26 @@ class ClosedLoop:
     """A batch of closed-loop controllers (a pytree whose leaves share their leading or trailing batch axis).
 
     ``coeffs`` [..., n_ctrl, 2K+1] the CPG's; ``weights`` [..., outputs, inputs] the policy's (the weights, not the
-    genes: :func:`from_genomes`); ``command`` [...] each robot's commanded turning rate (rad/s); ``key`` [..., 2]
-    uint32 or None: the raw key of each robot's sensor noise.  ``family`` is static (the pytree's aux data).
+    genes: :func:`from_genomes`); ``command`` [...] each robot's commanded turning rate (rad/s), constant; ``key``
+    [..., 2] uint32 or None: the raw key of each robot's sensor noise; ``steer`` None or a source of the command
+    computed in the episode's scan instead (:class:`cpgjax.episode.steering.Schedule` or ``Course``, its arrays with
+    the same robot axis).  ``family`` is static (the pytree's aux data).
     """
 
-    def __init__(self, family: Family, coeffs, weights, command=None, key=None):
+    def __init__(self, family: Family, coeffs, weights, command=None, key=None, steer=None):
         self.family, self.coeffs, self.weights, self.command, self.key = family, coeffs, weights, command, key
+        self.steer = steer
 
     def tree_flatten(self):
-        return (self.coeffs, self.weights, self.command, self.key), self.family
+        return (self.coeffs, self.weights, self.command, self.key, self.steer), self.family
 
     @classmethod
     def tree_unflatten(cls, family, leaves):
         return cls(family, *leaves)
 
     def replace(self, **kw) -> ClosedLoop:
-        d = {"coeffs": self.coeffs, "weights": self.weights, "command": self.command, "key": self.key} | kw
+        d = {"coeffs": self.coeffs, "weights": self.weights, "command": self.command, "key": self.key,
+             "steer": self.steer} | kw
         return ClosedLoop(self.family, **d)
 
     def __len__(self) -> int:          # robots first: the number of controllers
@@ -166,7 +170,7 @@ def batch_size(controller: Any) -> int:
     return int(c.shape[0])
 
 
-def from_genomes(family: Family | None, model, genomes, command=None, key=None):
+def from_genomes(family: Family | None, model, genomes, command=None, key=None, steer=None):
     """Genomes [N, G] to controllers: coefficients [N, n_ctrl, 2K+1] (open loop) or a :class:`ClosedLoop` [N].
 
     Traceable (numpy or JAX in, the same kind out).  The weights are the genes scaled (:func:`weight_scale`).
@@ -185,7 +189,7 @@ def from_genomes(family: Family | None, model, genomes, command=None, key=None):
     w = g[:, model.n_genes:].reshape(n, family.n_out(model), family.n_in(model)) * weight_scale(family, model)[None]
     if command is None:
         command = xp.zeros((n,), g.dtype)
-    return ClosedLoop(family, coeffs, w, command, key)
+    return ClosedLoop(family, coeffs, w, command, key, steer)
 
 
 def to_genome(controller: ClosedLoop, model) -> np.ndarray:

@@ -17,6 +17,7 @@ import jax.numpy as jnp
 from cpgjax.episode import descriptors as bd
 from cpgjax.episode import policy as pol
 from cpgjax.episode import sensors
+from cpgjax.episode import steering as st
 from cpgjax.episode.cpg import targets
 from cpgjax.episode.fitness import stability
 from cpgjax.episode.support import projection_stability
@@ -113,11 +114,17 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     With ``descriptors=True`` (:mod:`cpgjax.episode.descriptors`, accumulated at every log sample) also
     ``duty`` [legs, B] (each leg's duty factor), ``heading_speed`` and ``turn`` [B] (forward speed along the
     heading, m/s, and turning rate, rad/s).
+    A closed loop whose ``steer`` is set (:mod:`cpgjax.episode.steering`) reads a command computed in the scan every
+    step (recorded as ``command`` [S, B], and for a ``Course`` the next waypoint's index ``waypoint`` [S, B]); under a
+    ``Schedule`` the results add ``heading_fitness`` and ``turn_error`` [B] (the tracking sums, stopped at a fall as
+    the fitness is).
     """
     inner, outer = schedule(model, time, log_rate)
     T = inner * outer * model.dt
     closed = pol.is_closed(coeffs)
     policy = coeffs if closed else None
+    steer = policy.steer if closed else None
+    schedule_ = isinstance(steer, st.Schedule)
     if closed:
         coeffs = policy.coeffs
         if noise and policy.key is None:
@@ -127,10 +134,10 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     K, f0, dt = model.harmonics, model.frequency, model.dt
     fwd = forward
 
-    def sense(s, b):
+    def sense(s, b, command):
         """The observation [in, B] of state ``s`` at the CPG's basis ``b`` (noise added)."""
         phase = (b[1], b[2]) if K else (jnp.zeros((B,), coeffs.dtype),) * 2
-        obs = sensors.observe(model, policy.family.inputs, s, var, phase, policy.command)
+        obs = sensors.observe(model, policy.family.inputs, s, var, phase, command)
         if noise:
             amp = noise * sensors.noise_scale(model, policy.family.inputs)
             # kept apart from the sum (cf. episode.perturb._one): the same bits in every program
@@ -140,10 +147,16 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     def closed_ctrl(s, cl):
         """The servo targets of the closed loop at ``s``, the action's frequency modulation and the new memory."""
         b, db = pol.phase_basis(sim_time(model, s), cl["d"], K, f0)
-        obs = sense(s, b)
+        mem = {}
+        if steer is None:
+            command = policy.command
+        else:   # the command computed from the state (:mod:`cpgjax.episode.steering`)
+            command, smem = steer.command(model, s, cl["steer"])
+            mem = {"steer": smem, "command": command}
+        obs = sense(s, b, command)
         off, mf, ma = pol.act(policy.family, model, policy.weights, cl["obs"] if latency else obs)
         ctrl = pol.modulated_targets(coeffs, b, db, off, mf, ma)
-        return ctrl, mf, {"d": cl["d"], "obs": obs, "target": ctrl[0], "action": (off, mf, ma)}
+        return ctrl, mf, {"d": cl["d"], "obs": obs, "target": ctrl[0], "action": (off, mf, ma)} | mem
 
     def inner_body(carry, _):
         s, fit, cl = carry
@@ -201,6 +214,10 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
                        proj_n=prev["proj_n"] + defined,
                        proj_min=jnp.minimum(prev["proj_min"], jnp.where(defined, proj_t, jnp.inf)))
             out = (out, {"S": S_t, "proj": proj_t})
+        if schedule_:   # the tracking sums (:mod:`cpgjax.episode.steering`)
+            psi, xy = st.heading_of(model, s_new)
+            second = sim_time(model, s_new) > steer.switch
+            acc["track"] = st.track_update(prev["track"], psi, xy, stability(cosu, delta), second, ok & ~prev["down"])
         if descriptors:
             if model.terrain.flat:
                 touching = p[2, model.ct_pt] < 0
@@ -217,12 +234,18 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             return {"x": s.x, "q": s.q, "v": s.v, "w": s.w, "angle": angle, "target": tgt, "t": t}
         # the closed loop: the target, observation and action of the sample's last step (at t = 0: the first step's)
         off, mf, ma = cl["action"]
-        return {"x": s.x, "q": s.q, "v": s.v, "w": s.w, "angle": angle, "target": cl["target"], "t": t,
-                "obs": cl["obs"], "offsets": off, "frequency": mf, "amplitude": ma, "phase": cl["d"]}
+        out = {"x": s.x, "q": s.q, "v": s.v, "w": s.w, "angle": angle, "target": cl["target"], "t": t,
+               "obs": cl["obs"], "offsets": off, "frequency": mf, "amplitude": ma, "phase": cl["d"]}
+        if steer is not None:
+            out["command"] = cl["command"]
+            out.update(cl["steer"])
+        return out
 
     if closed:   # the memory of the loop: the phase offset d, the last observation, target and action
-        _, _, cl0 = closed_ctrl(s0, {"d": jnp.zeros((B,), coeffs.dtype),
-                                     "obs": jnp.zeros((policy.family.n_in(model), B), coeffs.dtype)})
+        mem0 = {"d": jnp.zeros((B,), coeffs.dtype), "obs": jnp.zeros((policy.family.n_in(model), B), coeffs.dtype)}
+        if steer is not None:
+            mem0["steer"] = steer.init(model, s0)
+        _, _, cl0 = closed_ctrl(s0, mem0)
         if latency:   # the first step has no step before: it uses the initial state's observation
             _, _, cl0 = closed_ctrl(s0, cl0)
 
@@ -231,6 +254,8 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             "down": z < 0, "up": z}
     if stability_series:
         acc0.update(S=z, proj=z, proj_n=jnp.zeros((B,), jnp.int32), proj_min=z + jnp.inf)
+    if schedule_:
+        acc0["track"] = st.track_init(*st.heading_of(model, s0))
     if descriptors:
         feet = bd.legs(model)[1]
         acc0["bd"] = bd.init(model, s0.x, quat_to_mat(s0.q), feet.shape[0])
@@ -259,6 +284,9 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         res.update(S=series["S"], proj=series["proj"], S_mean=acc["S"] / outer,
                    proj_mean=jnp.where(n > 0, acc["proj"] / jnp.maximum(n, 1), jnp.nan),
                    proj_min=jnp.where(n > 0, acc["proj_min"], jnp.nan), proj_undefined=outer - n)
+    if schedule_:
+        hf, err = st.track_finish(acc["track"], T, steer.switch, steer.first, steer.second)
+        res.update(heading_fitness=jnp.where(acc["diverged"] | ~jnp.isfinite(hf), 0.0, hf), turn_error=err)
     if descriptors:
         d = bd.finish(acc["bd"], outer, T)
         res.update(duty=d["duty"], heading_speed=d["speed"], turn=d["turn"])

@@ -18,8 +18,14 @@ those sensors read, in groups (a closed-loop controller reads some or all of the
   :func:`cpgjax.episode.descriptors.legs`; touching as the contact law tests it, some vertex of the foot in the
   terrain, depth > 0, or just on it, depth 0: a robot placed on the ground reads its feet down from t = 0);
 - ``phase`` [2]: ``sin`` and ``cos`` of the CPG's phase (:mod:`cpgjax.episode.policy`);
-- ``command`` [1]: the commanded turning rate, rad/s (0 unless a task sets it);
+- ``command`` [1]: the commanded turning rate ``c``, rad/s (0 unless a task sets it: :mod:`cpgjax.episode.steering`);
+- ``steer`` [2]: ``c sin`` and ``c cos`` of the CPG's phase: with them a linear policy can change each joint's first
+  harmonic in proportion to the command (a longer stride on one side, which is how a trotting quadruped turns),
+  which ``command`` alone, a constant offset, cannot;
 - ``bias`` [1]: the constant 1.
+
+A family reads every group but ``steer`` unless it names its groups (:data:`DEFAULT_GROUPS`, the groups that
+existed before ``steer``: the closed-loop runs and `.ctl` files made before it read as they did).
 
 Each group has a scale (:data:`SCALES`): the size of a typical reading, by which the policy's weights are scaled
 (:mod:`cpgjax.episode.policy`) and sensor noise is sized (:func:`noise`).
@@ -39,17 +45,21 @@ from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.rotation import matTvec, matvec, quat_to_mat
 
 #: The observation's groups, in the order they are stacked.
-GROUPS = ("angles", "tilt", "rates", "contact", "phase", "command", "bias")
-#: The typical size of a group's readings (rad, rad, rad/s, 1, 1, rad/s, 1).
-SCALES = {"angles": 1.0, "tilt": 0.5, "rates": 2.0, "contact": 1.0, "phase": 1.0, "command": 1.0, "bias": 1.0}
-#: The groups that are sensors: noise is added to them, not to the CPG's phase, the command or the bias.
+GROUPS = ("angles", "tilt", "rates", "contact", "phase", "command", "steer", "bias")
+#: The groups a family reads when it names none (``--controller pmtg``).
+DEFAULT_GROUPS = tuple(g for g in GROUPS if g != "steer")
+#: The typical size of a group's readings (rad, rad, rad/s, 1, 1, rad/s, rad/s, 1).
+SCALES = {"angles": 1.0, "tilt": 0.5, "rates": 2.0, "contact": 1.0, "phase": 1.0, "command": 1.0, "steer": 0.25,
+          "bias": 1.0}
+#: The groups that are sensors: noise is added to them, not to the CPG's phase, the command (and ``steer``) or the
+#: bias.
 SENSED = ("angles", "tilt", "rates", "contact")
 
 
 def sizes(model) -> dict[str, int]:
     """The number of readings of each group for ``model``."""
     return {"angles": model.n_ctrl, "tilt": 2, "rates": 2, "contact": int(legs(model)[1].shape[0]), "phase": 2,
-            "command": 1, "bias": 1}
+            "command": 1, "steer": 2, "bias": 1}
 
 
 def _feet(model):
@@ -123,6 +133,8 @@ def observe(model, groups, s, var, phase, command):
             parts.append(jnp.stack(phase))
         elif g == "command":
             parts.append(command[None])
+        elif g == "steer":
+            parts.append(jnp.stack(phase) * command[None])
         else:
             parts.append(jnp.ones((1,) + command.shape, command.dtype))
     return jnp.concatenate(parts, 0)

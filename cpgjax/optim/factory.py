@@ -15,10 +15,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.episode import steering
 from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
-from cpgjax.episode.perturb import Perturbations, draw, noise_key, roughened
+from cpgjax.episode.perturb import Perturbations, commands, draw, noise_key, roughened
 from cpgjax.episode.policy import Family, from_control, from_genomes, from_table, parse_controller, to_genome
 from cpgjax.episode.policy import base_genome as policy_base
 from cpgjax.io.wl import load_model
@@ -166,10 +167,10 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
                    evaluate=evaluate_genomes, meta=meta)
 
 
-def controllers(family: Family | None, model, g, key=None):
+def controllers(family: Family | None, model, g, key=None, steer=None):
     """The controllers of genomes ``g`` [N, G] (:func:`cpgjax.episode.policy.from_genomes`), computed apart from the
     simulation (the barrier: the same weights in every program, cf. :func:`robust_problem`)."""
-    c = from_genomes(family, model, g, key=key)
+    c = from_genomes(family, model, g, key=key, steer=steer)
     return c if family is None else jax.lax.optimization_barrier(c)
 
 
@@ -194,6 +195,14 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
     G = model.n_genes if family is None else family.n_genes(model)
     sensing = {} if family is None else {"latency": p.latency, "noise": p.noise}
     lo, hi = -0.8, 0.8
+    if p.command > 0 and (family is None or "command" not in family.inputs):
+        raise ValueError("perturbation command: the controller must read the command (--controller "
+                         "pmtg:...+command+..., e.g. pmtg:tilt+contact+command+steer+bias)")
+    if p.command > 0:   # the schedule switches at the log sample nearest the episode's middle
+        from cpgjax.episode.rollout import schedule
+
+        inner, outer = schedule(model, T)
+        switch = (outer // 2) * inner * model.dt
 
     def evaluate_genomes(genomes, keys):
         g = jnp.asarray(genomes, jnp.float32)
@@ -210,14 +219,20 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
         # in different programs (cf. optim.algorithm.generation_step)
         var, g = jax.lax.optimization_barrier((var, g))
         nk = noise_key(k[: n * R]) if family is not None and p.noise > 0 else None
-        r = evaluate(model, controllers(family, model, g, nk), time=T, delta=delta, chunk=chunk, var=var,
+        steer = None
+        if p.command > 0:
+            c = commands(k[: n * R], p.command)
+            steer = steering.Schedule(c[0], c[1], switch, p.command)
+        r = evaluate(model, controllers(family, model, g, nk, steer), time=T, delta=delta, chunk=chunk, var=var,
                      fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, **sensing)
+        if steer is not None:   # the score of following the command (steering.tracking_fitness), not eq. 4.6
+            r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command))
         if p.fall_zero:   # a fall forfeits the episode
             r = dict(r, fitness=jnp.where(r["down"], 0.0, r["fitness"]))
         elif p.fall_survival:   # a fall scales the episode's score by the share of it the robot stayed up
             r = dict(r, fitness=r["fitness"] * r["up"])
         out = {}
-        for key in METRICS:
+        for key in METRICS + (("turn_error",) if steer is not None else ()):
             v = r[key].reshape(n, R)
             out[key] = v.any(1) if key == "diverged" else v.astype(jnp.float32).mean(1)
         return out

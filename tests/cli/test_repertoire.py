@@ -86,9 +86,17 @@ def test_the_study_compares_ite_with_the_ga_from_scratch(duty, tmp_path, capsys)
     (["adapt", MODEL, "--repertoire", "missing.h5", "--damage", "leg=AR"], "missing.h5: no such file"),
     (["follow", MODEL, "--repertoire", "r.h5", "--path", "line:1", "--lookahead", "-1"], "argument --lookahead"),
     (["follow", MODEL, "--repertoire", "r.h5", "--path", "line:1", "--safe-tilt", "0"], "argument --safe-tilt"),
+    (["follow", MODEL, "--ctl", "models/quadruped-trot.ctl", "--path", "line:1"],
+     "a controller that reads the commanded turning rate is needed"),
+    (["follow", MODEL, "--repertoire", "r.h5", "--path", "line:1", "--gain", "2"], "--gain: with --ctl only"),
+    (["follow", MODEL, "--ctl", "a.ctl", "--path", "line:1", "--lookahead", "4"],
+     "--lookahead: with --repertoire only"),
+    (["follow", MODEL, "--ctl", "a.ctl", "--path", "line:1", "--limit", "0"], "argument --limit"),
+    (["evolve", MODEL, "--evaluation", "robust", "--perturb", "command=0.4", "--generations", "1"],
+     "perturbation command: the controller must read the command"),
 ])
 def test_bad_input_is_one_line(argv, message, tmp_path, capsys):
-    rc = main([*argv, "--out", str(tmp_path / "x.h5")] if argv[0] == "repertoire" else argv)
+    rc = main([*argv, "--out", str(tmp_path / "x.h5")] if argv[0] in ("repertoire", "evolve") else argv)
     err = capsys.readouterr().err
     assert rc == 2 and message in err and len(err.strip().splitlines()) == 1
 
@@ -117,3 +125,32 @@ def test_follow_walks_with_a_speed_turn_repertoire(tmp_path, capsys):
     assert r["cycles"] == 1 and len(r["trajectory"]) == 41 and r["gaits"][0]["cell"] == w["gaits"][0]["cell"]
     r = follow(MODEL, str(rep), "line:5", cycles=1, lookahead=8, copies=2)       # judged by the worse of 2 copies
     assert r["cycles"] == 1 and 0 <= r["gaits"][0]["safe"] <= 8
+
+
+@pytest.mark.slow   # 20 s of CPU, most of it compiling the steered episode
+def test_follow_walks_every_path_with_every_steering_controller_in_one_episode(tmp_path, capsys):
+    """`cpgjax follow --ctl`: two controllers x two paths, each walk one robot of one batch, measured and written."""
+    import numpy as np
+
+    from cpgjax.episode import policy as pol
+    from cpgjax.io.ctl import PolicyTable, read_ctl, write_ctl
+    from cpgjax.io.wl import load_model
+
+    m = load_model(MODEL)
+    fam = pol.parse_controller("pmtg:tilt+command+steer+bias")
+    coeffs = read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs
+    for name, w in (("zero", 0.0), ("turn", 1.0)):
+        W = np.zeros((fam.n_out(m), fam.n_in(m)))
+        W[:, 2] = w * np.linspace(-0.5, 0.5, fam.n_out(m))         # offsets and modulations per unit of command
+        c = pol.ClosedLoop(fam, coeffs, W.astype(np.float32), np.zeros((), np.float32))
+        write_ctl(tmp_path / f"{name}.ctl", coeffs, policy=PolicyTable(**pol.table_fields(c, m)), exact=True)
+    out = tmp_path / "walks.json"
+    rc = main(["follow", MODEL, "--ctl", str(tmp_path / "zero.ctl"), "--ctl", str(tmp_path / "turn.ctl"),
+               "--path", "line:0.1", "--path", "circle:2", "--time", "1", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert rc == 0 and "of 4 walks finished without a fall" in text
+    w = json.loads(out.read_text())
+    assert [(x["ctl"].endswith("zero.ctl"), x["path"]) for x in w] == [
+        (True, "line:0.1"), (True, "circle:2"), (False, "line:0.1"), (False, "circle:2")]
+    assert w[0]["finished"] and w[0]["reached"] == 1 and w[0]["time"] < 1.0      # 0.1 m: passed at once
+    assert w[1]["command_mean_abs"] > 0.1 and len(w[1]["trajectory"]) == 21       # 1 s at 20 Hz, t = 0 included

@@ -24,7 +24,7 @@ def _ours(model, tilt):
                                                lift=jnp.asarray([lift], jnp.float32))
     s = varied_initial_state(model, var)
     z = jnp.zeros((1,), jnp.float32)
-    obs = jax.jit(lambda s: sensors.observe(model, sensors.GROUPS, s, None, (z + 0.3, z - 0.2), z))(s)
+    obs = jax.jit(lambda s: sensors.observe(model, sensors.GROUPS, s, None, (z + 0.3, z - 0.2), z + 0.25))(s)
     return np.asarray(obs)[:, 0]
 
 
@@ -38,7 +38,7 @@ def _mujoco(model, mj, tilt):
     d.qpos[3:7] = q
     d.qpos[2] += 0.01 if (a or b) else -SINK       # lifted: the tilted robot does not start in the ground
     mujoco.mj_forward(mj, d)
-    return mujoco_observe(model, mj, [d], sensors.GROUPS, (np.array([0.3]), np.array([-0.2])), np.zeros(1))[0]
+    return mujoco_observe(model, mj, [d], sensors.GROUPS, (np.array([0.3]), np.array([-0.2])), np.full(1, 0.25))[0]
 
 
 def test_mujoco_sees_the_observation_we_see_at_t0():

@@ -4,7 +4,7 @@ import jax
 import numpy as np
 import pytest
 
-from cpgjax.episode.perturb import LATER, PRESETS, Perturbations, draw
+from cpgjax.episode.perturb import LATER, PRESETS, Perturbations, commands, draw
 from cpgjax.io.wl import load_model
 
 
@@ -58,3 +58,23 @@ def test_the_run_records_every_range_drawn_and_the_controller_family():
 def test_bad_ranges_are_refused(bad, message):
     with pytest.raises(ValueError, match=message):
         Perturbations.from_settings(bad)
+
+
+def test_commands_are_drawn_per_half_within_the_range_from_the_key_alone():
+    keys = jax.random.split(jax.random.key(7), 300)
+    c = np.asarray(commands(keys, 0.3))
+    assert c.shape == (2, 300) and np.abs(c).max() <= 0.3 and c.min() < -0.29 and c.max() > 0.29
+    assert np.corrcoef(c[0], c[1])[0, 1] ** 2 < 0.05                         # the halves are drawn apart
+    np.testing.assert_array_equal(np.asarray(commands(keys[:17], 0.3)), c[:, :17])   # a robot's, whatever the batch
+
+
+def test_a_steered_run_records_the_command_and_refuses_a_controller_that_cannot_read_it():
+    from cpgjax.optim.factory import make_problem
+
+    p = make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller="pmtg:tilt+command+steer+bias",
+                     perturb={"command": 0.4})
+    assert p.meta["perturbations"]["command"] == 0.4 and p.n_genes == 40 + 10 * 6
+    assert "command" not in Perturbations().to_dict()                            # off: the earlier records
+    for ctl in (None, "pmtg:tilt+bias"):
+        with pytest.raises(ValueError, match="must read the command"):
+            make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller=ctl, perturb={"command": 0.4})

@@ -1,0 +1,31 @@
+#!/bin/sh
+# Steering without an oracle (docs/results/closed-loop.md, "Steering without an oracle"): a closed-loop gait
+# evolved to follow a commanded turning rate, then each path walked by the gait alone, the command set every
+# step from the robot's own pose.  Seeds 300, 301, 302 and the four paths were fixed before any was run.
+# Each evolution: the hand-written trot as the start, exact joints, 4 episodes of 10 s per controller, each
+# with a commanded rate U(-0.3, 0.3) rad/s per half, a fall forfeiting the episode, delta 1 (eq. 4.5: the score
+# weighted by cos^2 of the body's tilt); population 40, 150 generations.  Then the run's best, and every path
+# walked by every controller in one batch (cpgjax follow --ctl).  About 8-11 min per evolution on 2 shared cores.
+#
+#   sh docs/experiments/steering.sh [OUT] [SEEDS]        # default runs/steering, "300 301 302"
+#   REPLICAS=8 sh docs/experiments/steering.sh runs/steering-r8 "303 304 305"   # 8 episodes per controller
+set -e
+OUT=${1:-runs/steering}
+SEEDS=${2:-300 301 302}
+CPGJAX=${CPGJAX:-.venv/bin/cpgjax}
+mkdir -p "$OUT"
+CTLS=""
+for S in $SEEDS; do
+    [ -f "$OUT/s$S.ctl" ] || {
+        /usr/bin/time -f "s$S: %e s wall, %U s user" $CPGJAX evolve models/quadruped.wl \
+            --start models/quadruped-trot.ctl --pipeline exact \
+            --controller pmtg:tilt+contact+command+steer+bias --evaluation robust \
+            --perturb command=0.3,fall_zero=on${REPLICAS:+,replicas=$REPLICAS} --delta 1 --population 40 --generations 150 --time 10 \
+            --pocket 4 --gamma 0.01 --chunk 10 --seed "$S" --out "$OUT/s$S.h5" --overwrite --quiet
+        $CPGJAX best "$OUT/s$S.h5" --ctl "$OUT/s$S.ctl"
+    }
+    CTLS="$CTLS --ctl $OUT/s$S.ctl"
+done
+# shellcheck disable=SC2086
+$CPGJAX follow models/quadruped.wl $CTLS --pipeline exact --limit 0.3 --time 120 \
+    --path line:3 --path circle:0.5 --path square:1.0 --path figure8:0.5 --out "$OUT/walks.json"
