@@ -56,6 +56,7 @@ def test_single_joint_on_a_fixed_base_follows_a_half_hertz_target_in_both():
     assert abs(err_pen - err_mj) < 0.02, (err_pen, err_mj)
 
 
+@pytest.mark.slow  # 5 s in both engines; fast: the trot in both engines, crosscheck/test_compare.py
 def test_hand_written_trot_moves_forward_in_both_engines(quad):
     trot = read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs[None]
     # 6 s: the program of the trot's GIF caption replayed (tests/test_figures.py)

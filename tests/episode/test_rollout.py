@@ -55,10 +55,8 @@ def test_a_batch_of_n_equals_n_single_runs_and_is_deterministic(quad):
     # one robot alone and recorded are the programs of cli/test_replay.py, cli/test_cli.py, episode/test_policy.py
     C = rng.uniform(-0.5, 0.5, (197, 8, 5))
     batch = simulate(quad, C, time=TINY_TIME)
-    again = simulate(quad, C, time=TINY_TIME)
-    for k in batch:
-        np.testing.assert_array_equal(batch[k], again[k])
     assert np.ptp(batch["distance"]) > 0                     # 197 different episodes
+    # deterministic: three programs (197 robots, one, three recorded) give each robot the same bits
     recorded = simulate(quad, C[:3], time=TINY_TIME, record=True)
     for i in (0, 1, 2, 20, 196):
         one = simulate(quad, C[i], time=TINY_TIME)

@@ -118,7 +118,7 @@ def test_resume_refuses_another_grid(tmp_path):
 
 def test_a_child_that_fell_is_never_inserted(tmp_path):
     """The problem flags children with gene 0 > 0.64 as fallen (``meta["fall_metric"]``): no elite has it, and the
-    25 cells are still filled (the top column keeps 0.48..0.64); with ``keep_fallen`` they are inserted."""
+    25 cells are still filled (the top column keeps 0.48..0.64); with ``keep_fallen`` they are inserted (below)."""
     def evaluate(genomes):
         out = PROBLEM.evaluate(genomes)
         return {**out, "down": (jnp.asarray(genomes)[:, 0] > 0.64).astype(jnp.float32)}
@@ -129,5 +129,15 @@ def test_a_child_that_fell_is_never_inserted(tmp_path):
     rep = read_repertoire(tmp_path / "f.h5")
     assert rep.filled.all() and rep.descriptors[:, 0].max() <= np.float32(0.64)
     assert np.all(rep.metrics["down"] == 0)
+
+
+@pytest.mark.slow  # a program of its own; fast: the fallen never inserted, above
+def test_with_keep_fallen_a_child_that_fell_is_inserted(tmp_path):
+    def evaluate(genomes):
+        out = PROBLEM.evaluate(genomes)
+        return {**out, "down": (jnp.asarray(genomes)[:, 0] > 0.64).astype(jnp.float32)}
+
+    meta = {**PROBLEM.meta, "fall_metric": "down"}
+    falls = Problem(name="qd-falls", n_genes=5, base_genome=PROBLEM.base_genome, evaluate=evaluate, meta=meta)
     run_repertoire(falls, cfg(evaluations=64 * 20, keep_fallen=True), tmp_path / "k.h5")
     assert read_repertoire(tmp_path / "k.h5").descriptors[:, 0].max() > 0.64
