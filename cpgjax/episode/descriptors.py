@@ -78,11 +78,31 @@ def names(model, descriptor: str) -> tuple[str, ...]:
     raise ValueError(f"unknown descriptor {descriptor!r}: expected one of {', '.join(DESCRIPTORS)}")
 
 
+def wrap(a):
+    """An angle wrapped to (-pi, pi]."""
+    return jnp.arctan2(jnp.sin(a), jnp.cos(a))
+
+
+def forward_heading(f):
+    """The angle in the ground plane of a body's forward axis ``f`` [3, B] (its +y in world coordinates),
+    counter-clockwise from world +y (rad)."""
+    return jnp.arctan2(-f[0], f[1])
+
+
 def heading(model, R):
     """Heading [B] of the tracked body: the angle of its forward axis (body +y) in the ground plane,
     counter-clockwise from world +y (rad)."""
-    f = R[:, 1, model.track]          # the body's +y axis in world coordinates [3, B]
-    return jnp.arctan2(-f[0], f[1])
+    return forward_heading(R[:, 1, model.track])          # the body's +y axis in world coordinates [3, B]
+
+
+def heading_step(psi0, xy0, psi, xy):
+    """From one log sample to the next (heading ``psi0`` -> ``psi`` [B], CM in the ground plane ``xy0`` -> ``xy``
+    [2, B]): the turn, wrapped to (-pi, pi] (samples are far apart less than pi), and the advance along the mean
+    heading (m)."""
+    d = wrap(psi - psi0)
+    mid = psi0 + 0.5 * d
+    step = xy - xy0
+    return d, -jnp.sin(mid) * step[0] + jnp.cos(mid) * step[1]
 
 
 def init(model, x0, R0, n_legs: int):
@@ -97,11 +117,7 @@ def update(acc, feet, down, psi, xy):
     """One log sample: ``down`` [nc, B] which contact vertices touch, ``psi`` [B] the heading,
     ``xy`` [2, B] the tracked body's CM in the ground plane."""
     touch = (jnp.asarray(feet, down.dtype) @ down) > 0 if feet.shape[0] else jnp.zeros((0,) + down.shape[1:], bool)
-    d = psi - acc["psi"]
-    d = jnp.arctan2(jnp.sin(d), jnp.cos(d))          # wrapped to (-pi, pi]: samples are far apart less than pi
-    mid = acc["psi"] + 0.5 * d
-    step = xy - acc["xy"]
-    adv = -jnp.sin(mid) * step[0] + jnp.cos(mid) * step[1]
+    d, adv = heading_step(acc["psi"], acc["xy"], psi, xy)
     return {"touch": acc["touch"] + touch, "psi": psi, "turn": acc["turn"] + d,
             "advance": acc["advance"] + adv, "xy": xy}
 

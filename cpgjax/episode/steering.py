@@ -37,6 +37,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.episode import descriptors as bd
+from cpgjax.episode.descriptors import wrap
 from cpgjax.sim.rotation import quat_to_mat
 from cpgjax.sim.state import sim_time
 
@@ -45,16 +47,10 @@ REACH = 0.2      # m: a waypoint is passed when the tracked body's CM comes this
 TOLERANCE = 0.5  # the turn error, as a share of the command's range, at which the tracking fitness reaches 0
 
 
-def wrap(a):
-    """An angle wrapped to (-pi, pi]."""
-    return jnp.arctan2(jnp.sin(a), jnp.cos(a))
-
-
 def heading_of(model, s):
-    """Heading [B] of the tracked body (the angle of its forward axis, +y, in the ground plane, counter-clockwise
-    from world +y) and its CM in the ground plane [2, B]."""
-    f = quat_to_mat(s.q[:, model.track])[:, 1]
-    return jnp.arctan2(-f[0], f[1]), s.x[:2, model.track]
+    """Heading [B] of the tracked body (`descriptors.heading`, from its orientation alone) and its CM in the ground
+    plane [2, B]."""
+    return bd.forward_heading(quat_to_mat(s.q[:, model.track])[:, 1]), s.x[:2, model.track]
 
 
 def heading_error(xy, psi, target):
@@ -139,10 +135,7 @@ def track_init(psi, xy):
 def track_update(acc, psi, xy, S, second, up):
     """One log sample: heading ``psi`` [B], CM ``xy`` [2, B], stability ``S`` [B]; ``second`` (bool) whether the
     sample is in the schedule's second phase; ``up`` [B] whether the robot still scores (not fallen, not diverged)."""
-    d = wrap(psi - acc["psi"])                       # samples are far apart less than pi
-    mid = acc["psi"] + 0.5 * d
-    step = xy - acc["xy"]
-    adv = -jnp.sin(mid) * step[0] + jnp.cos(mid) * step[1]
+    d, adv = bd.heading_step(acc["psi"], acc["xy"], psi, xy)      # as the descriptors' sums
     d_up = jnp.where(up, d, 0.0)
     return {"psi": psi, "xy": xy, "advance": acc["advance"] + jnp.where(up, adv * S, 0.0),
             "turn0": acc["turn0"] + jnp.where(second, 0.0, d_up), "turn1": acc["turn1"] + jnp.where(second, d_up, 0.0)}
