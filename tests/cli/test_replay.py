@@ -49,13 +49,12 @@ def test_replicas_average_jittered_episodes():
 
     from cpgjax.episode.batch import simulate
     from cpgjax.io.ctl import genome_to_coeffs
+    from cpgjax.io.wl import load_model
 
     p3 = make_problem("models/quadruped.wl", time=TINY_TIME, replicas=3)
     g = np.tile(p3.base_genome, (6, 1)).astype(np.float32)
     f3 = np.asarray(jax.jit(p3.evaluate)(g)["fitness"])       # jitted: eagerly the episode runs op by op
     # the genome alone, unjittered: one robot, the suite's tiny episode (episode/test_rollout.py's program)
-    from cpgjax.io.wl import load_model
-
     m = load_model("models/quadruped.wl")
     f1 = simulate(m, genome_to_coeffs(p3.base_genome, m.n_ctrl, m.harmonics), time=TINY_TIME)["fitness"]
     assert f3.shape == (6,) and np.isfinite(f3).all()
