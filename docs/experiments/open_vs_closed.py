@@ -29,6 +29,12 @@ RECIPE = ["--start", "models/quadruped-trot.ctl", "--pipeline", "exact", "--eval
 FAMILIES = {
     "open": ["--perturb", "preset=domain"],
     "closed": ["--perturb", "preset=domain,latency=1,noise=0.02", "--controller", "pmtg:tilt+contact+bias"],
+    # the open loop with twice the evaluation budget: 8 episodes per controller, or 30 generations
+    "open8ep": ["--perturb", "preset=domain,replicas=8"],
+    "open30gen": ["--perturb", "preset=domain", "--generations", "30"],
+    # the open loop evolved under ten times the gene jitter (sd 0.01 rad), alone and with 8 episodes
+    "openj10": ["--perturb", "preset=domain,jitter=0.01"],
+    "openj10x8": ["--perturb", "preset=domain,jitter=0.01,replicas=8"],
 }
 TERRAINS = ["flat", "rough:0.01", "rough:0.02", "rough:0.04"]
 CPGJAX = os.path.join(os.path.dirname(sys.executable), "cpgjax")
@@ -48,12 +54,13 @@ def run(cmd: list[str]) -> tuple[float, float]:
     return time.perf_counter() - t0, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
 
 
-def evolve_and_replay(out: str, seed_list: list[int], terrains: list[str]) -> None:
+def evolve_and_replay(out: str, seed_list: list[int], terrains: list[str], families: list[str]) -> None:
     os.makedirs(out, exist_ok=True)
     times_path = os.path.join(out, "times.json")
     times = json.load(open(times_path)) if os.path.exists(times_path) else {}
     for seed in seed_list:
-        for fam, extra in FAMILIES.items():
+        for fam in families:
+            extra = FAMILIES[fam]
             h5 = os.path.join(out, f"{fam}-s{seed}.h5")
             if not os.path.exists(h5):
                 tmp = h5 + ".part.h5"
@@ -155,7 +162,8 @@ def plot(out: str, path: str) -> None:
 
     rows = collect(out)
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    colors = {"open": "tab:blue", "closed": "tab:red"}
+    colors = {"open": "tab:blue", "closed": "tab:red", "open8ep": "tab:green", "open30gen": "tab:purple", "openj10": "tab:orange",
+              "openj10x8": "tab:brown"}
     for f in FAMILIES:
         for engine, style in (("ours", "-"), ("mujoco", "--")):
             by_seed: dict = {}
@@ -189,6 +197,7 @@ def main() -> None:
     ap.add_argument("--seeds", default="200-209")
     ap.add_argument("--out", default="runs/open-vs-closed")
     ap.add_argument("--terrains", default=",".join(TERRAINS))
+    ap.add_argument("--families", default="open,closed", help=f"comma-separated, of {', '.join(FAMILIES)}")
     ap.add_argument("--isa", default=None, help="also set XLA_FLAGS=--xla_cpu_max_isa=ISA (another rounding)")
     ap.add_argument("--table", action="store_true", help="only tabulate (and plot) what is on disk")
     ap.add_argument("--figure", default=None, help="also draw speed against roughness into this file")
@@ -196,7 +205,7 @@ def main() -> None:
     if a.isa:
         os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + f" --xla_cpu_max_isa={a.isa}").strip()
     if not a.table:
-        evolve_and_replay(a.out, seeds(a.seeds), a.terrains.split(","))
+        evolve_and_replay(a.out, seeds(a.seeds), a.terrains.split(","), a.families.split(","))
     print(table(a.out))
     if a.figure:
         plot(a.out, a.figure)
