@@ -1,0 +1,89 @@
+"""Which of MuJoCo's own settings decides whether an evolved gait falls there? (docs/results/closed-loop.md)
+
+Each run's plain best is replayed in MuJoCo C as `cpgjax transfer` replays it (flat ground, its episode, once as
+it is and 32 times with its genes jittered by sd 1e-3, the same jitter), with the exported model as it is and
+with one of MuJoCo's settings changed at a time: the friction cone elliptic instead of pyramidal, `impratio` 10
+(friction constraints 10x harder than the normal ones), 3 no-slip iterations (no creep of a sticking foot), a
+1 ms step, RK4 or Euler instead of implicitfast, and the contacts' `solimp` harder (0.99 0.99 0.001).  Printed
+per run and setting: falls of the 32 and the unjittered replay's speed (m/s).  Run:
+
+    .venv/bin/python docs/experiments/mujoco_knobs.py RUN.h5 [RUN.h5 ...]
+    .venv/bin/python docs/experiments/mujoco_knobs.py --convergence RUN.h5 [RUN.h5 ...]   # the step and integrator alone
+"""
+
+import os
+import sys
+import zlib
+
+import numpy as np
+
+import cpgjax  # noqa: F401  (first: the host devices)
+
+from cpgjax.crosscheck.engines import mujoco_run
+from cpgjax.crosscheck.mjcf import load
+from cpgjax.crosscheck.transfer import _model, run_setting
+from cpgjax.episode.policy import family_from_meta, from_genomes
+from cpgjax.io.results import read_run
+
+REPLAYS = 32
+
+
+def settings(mujoco):
+    def opt(**kw):
+        def f(mj):
+            for k, v in kw.items():
+                setattr(mj.opt, k, v)
+        return f
+
+    def solimp(mj):
+        mj.geom_solimp[:] = [0.99, 0.99, 0.001, 0.5, 2.0]
+
+    return {"as exported": None, "elliptic": opt(cone=mujoco.mjtCone.mjCONE_ELLIPTIC), "impratio10": opt(impratio=10.0),
+            "noslip3": opt(noslip_iterations=3), "dt1ms": opt(timestep=0.001),
+            "RK4": opt(integrator=mujoco.mjtIntegrator.mjINT_RK4), "Euler": opt(integrator=mujoco.mjtIntegrator.mjINT_EULER),
+            "solimp.99": solimp}
+
+
+def convergence(mujoco):
+    """The step and the integrator alone: implicitfast (the export's) at 2, 1, 0.5 and 0.25 ms, RK4 at 2, 1, 0.5 ms."""
+    def step(dt, integrator=None):
+        def f(mj):
+            mj.opt.timestep = dt
+            if integrator is not None:
+                mj.opt.integrator = integrator
+        return f
+
+    rk4 = mujoco.mjtIntegrator.mjINT_RK4
+    return {"implicitfast 2 ms": None, "1 ms": step(1e-3), "0.5 ms": step(5e-4), "0.25 ms": step(2.5e-4),
+            "RK4 2 ms": step(2e-3, rk4), "RK4 1 ms": step(1e-3, rk4), "RK4 0.5 ms": step(5e-4, rk4)}
+
+
+def main(paths: list[str]) -> None:
+    import mujoco
+
+    S = convergence(mujoco) if paths[0] == "--convergence" else settings(mujoco)
+    paths = [p for p in paths if p != "--convergence"]
+    print("| run | " + " | ".join(S) + " |")
+    print("|---|" + "---:|" * len(S))
+    for path in paths:
+        run = read_run(path)
+        _, _, _, genome = run.best()
+        _, time, evolved_on = run_setting(run)
+        model = _model(str(run.meta["model_text"]), str(run.meta.get("model_path", path)), evolved_on, None, None,
+                       run.pipeline)
+        g = np.asarray(genome, np.float32)
+        rng = np.random.default_rng([0, zlib.crc32(g.tobytes())])       # cpgjax transfer's jitter
+        G = np.concatenate([g[None], np.clip(g[None] + rng.normal(0, 1e-3, (REPLAYS,) + g.shape), -0.8, 0.8)])
+        C = from_genomes(family_from_meta(run.meta), model, G.astype(np.float32))
+        cells = []
+        for change in S.values():
+            mj = load(model)
+            if change is not None:
+                change(mj)
+            r, _, _ = mujoco_run(model, C, time=float(time or model.time_max), mj=mj)
+            cells.append(f"{int(np.asarray(r['fallen'])[1:].sum())}, {float(np.asarray(r['speed'])[0]):.2f}")
+        print(f"| {os.path.basename(path)} | " + " | ".join(cells) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
