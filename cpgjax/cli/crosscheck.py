@@ -63,6 +63,9 @@ def register(subparsers: Any) -> None:
     t.add_argument("--terrain", type=o.terrain,
                    help="replay every run on this terrain, here and in MuJoCo (the same field exported), instead of "
                         "the one it was evolved on (default); e.g. rough:0.02 or rough:0.02:0.1:SEED")
+    t.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
+                   help="MuJoCo's integration step (default: the export's, 2 ms; at 2 ms MuJoCo's verdict on a "
+                        "marginal gait depends on the step: docs/results/closed-loop.md)")
     t.add_argument("--restate", action="store_true",
                    help="the arguments are transfer tables (transfer.md, as --out writes them): judge each run again "
                         "by today's rule from the figures in the table, without replaying anything")
@@ -168,7 +171,8 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
                                        dt=args.dt, joint_spring=args.joint_spring, pipeline=args.pipeline,
-                                       terrain=args.terrain, pick=pick, progress=lambda _: bar.update())
+                                       terrain=args.terrain, pick=pick, progress=lambda _: bar.update(),
+                                       mujoco_dt=args.mujoco_dt)
     summary = transfer.summary(replays, args.by)
     summary["pick"] = args.pick
     if args.pipeline is not None:
@@ -180,6 +184,9 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.dt is not None:
         here.append(f"step {args.dt * 1e3:g} ms")
         summary["dt"] = args.dt
+    if args.mujoco_dt is not None:
+        here.append(f"MuJoCo's step {args.mujoco_dt * 1e3:g} ms")
+        summary["mujoco_dt"] = args.mujoco_dt
     if args.joint_spring is not None:
         here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
         summary["joint_spring"] = list(args.joint_spring)

@@ -213,6 +213,36 @@ def test_transfer_replays_on_a_given_terrain_in_both_engines(runs, capsys, monke
     assert "--terrain" in capsys.readouterr().err
 
 
+
+def test_mujocos_step_can_be_set_and_is_named(runs, capsys, monkeypatch):
+    """--mujoco-dt reaches MuJoCo's model (its step) and the table; our side keeps the run's step."""
+    import mujoco
+
+    seen = []
+
+    def walks(n):
+        return {"fitness": np.full(n, 0.2), "speed": np.full(n, 0.2), "distance": np.full(n, 2.0),
+                "fallen": np.zeros(n, bool)}
+
+    def fake_simulate(model, C, time):
+        seen.append(("ours", model.dt))
+        return walks(len(C))
+
+    def fake_mujoco(model, C, time, mj):
+        assert isinstance(mj, mujoco.MjModel)
+        seen.append(("mujoco", mj.opt.timestep))
+        return walks(len(C)), None, 0.0
+
+    monkeypatch.setattr(transfer, "simulate", fake_simulate)
+    monkeypatch.setattr(transfer, "mujoco_run", fake_mujoco)
+    (r,) = transfer.replay_runs([runs / "thesis.h5"], replays=1, mujoco_dt=5e-4)
+    (d,) = transfer.replay_runs([runs / "thesis.h5"], replays=1)
+    assert seen == [("ours", 5e-4), ("mujoco", 5e-4), ("ours", 5e-4), ("mujoco", 2e-3)] and r.carries_over
+    assert cli.main(["transfer", str(runs / "thesis.h5"), "--replays", "1", "--mujoco-dt", "2.5e-4"]) == 0
+    assert "MuJoCo's step 0.25 ms" in capsys.readouterr().out
+    assert cli.main(["transfer", str(runs), "--mujoco-dt", "0"]) == 2
+    assert "--mujoco-dt" in capsys.readouterr().err
+
 @pytest.mark.slow
 def test_a_run_replayed_on_a_rough_field_scores_otherwise_than_on_its_own(runs):
     (r,) = transfer.replay_runs([runs / "thesis.h5"], replays=1, terrain="rough:0.01:0.1:3")
