@@ -216,7 +216,8 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         G = np.concatenate([g[None], np.clip(g[None] + rng.normal(0, jitter, (replays,) + g.shape), -0.8, 0.8)])
         C = from_genomes(family_from_meta(run.meta), model, G.astype(np.float32))   # a CPG's, or a closed loop
         ours = simulate(model, C, time=T)
-        mj, _, _ = mujoco_run(model, C, time=T, mj=load(model) if mujoco_dt is None else load(model, timestep=mujoco_dt))
+        mjm = load(model) if mujoco_dt is None else load(model, timestep=mujoco_dt)
+        mj, _, _ = mujoco_run(model, C, time=T, mj=mjm)
         first = lambda r, i: {k: float(np.asarray(r[k])[i]) for k in ("fitness", "speed", "distance")} | {  # noqa: E731
             "fallen": bool(np.asarray(r["fallen"])[i])}
         rest = lambda r: {k: np.asarray(r[k])[1:] for k in ("fitness", "speed", "fallen")}  # noqa: E731
