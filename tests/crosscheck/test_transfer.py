@@ -186,21 +186,23 @@ def test_a_table_is_restated_by_todays_rule(tmp_path, capsys):
     assert "empty.md: no per-run rows of a transfer table" in capsys.readouterr().err
 
 
+def _walks(n):
+    """A replay's results where every robot walks (0.2 m/s, no fall): the engines faked."""
+    return {"fitness": np.full(n, 0.2), "speed": np.full(n, 0.2), "distance": np.full(n, 2.0),
+            "fallen": np.zeros(n, bool)}
+
+
 def test_transfer_replays_on_a_given_terrain_in_both_engines(runs, capsys, monkeypatch):
     """--terrain reaches both engines' models (the simulations themselves: the slow test below)."""
     seen = []
 
-    def walks(n):
-        return {"fitness": np.full(n, 0.2), "speed": np.full(n, 0.2), "distance": np.full(n, 2.0),
-                "fallen": np.zeros(n, bool)}
-
     def fake_simulate(model, C, time):
         seen.append(("ours", model.terrain.spec))
-        return walks(len(C))
+        return _walks(len(C))
 
     def fake_mujoco(model, C, time, mj):
         seen.append(("mujoco", model.terrain.spec))
-        return walks(len(C)), None, 0.0
+        return _walks(len(C)), None, 0.0
 
     monkeypatch.setattr(transfer, "simulate", fake_simulate)
     monkeypatch.setattr(transfer, "mujoco_run", fake_mujoco)
@@ -220,18 +222,14 @@ def test_mujocos_step_can_be_set_and_is_named(runs, capsys, monkeypatch):
 
     seen = []
 
-    def walks(n):
-        return {"fitness": np.full(n, 0.2), "speed": np.full(n, 0.2), "distance": np.full(n, 2.0),
-                "fallen": np.zeros(n, bool)}
-
     def fake_simulate(model, C, time):
         seen.append(("ours", model.dt))
-        return walks(len(C))
+        return _walks(len(C))
 
     def fake_mujoco(model, C, time, mj):
         assert isinstance(mj, mujoco.MjModel)
         seen.append(("mujoco", mj.opt.timestep))
-        return walks(len(C)), None, 0.0
+        return _walks(len(C)), None, 0.0
 
     monkeypatch.setattr(transfer, "simulate", fake_simulate)
     monkeypatch.setattr(transfer, "mujoco_run", fake_mujoco)
