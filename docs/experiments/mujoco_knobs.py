@@ -9,6 +9,7 @@ per run and setting: falls of the 32 and the unjittered replay's speed (m/s).  R
 
     .venv/bin/python docs/experiments/mujoco_knobs.py RUN.h5 [RUN.h5 ...]
     .venv/bin/python docs/experiments/mujoco_knobs.py --convergence RUN.h5 [RUN.h5 ...]   # the step and integrator alone
+    .venv/bin/python docs/experiments/mujoco_knobs.py --contact RUN.h5 [RUN.h5 ...]       # the ground's stiffness at 0.5 ms
 """
 
 import os
@@ -58,11 +59,28 @@ def convergence(mujoco):
             "RK4 2 ms": step(2e-3, rk4), "RK4 1 ms": step(1e-3, rk4), "RK4 0.5 ms": step(5e-4, rk4)}
 
 
+def contact(mujoco):
+    """The ground's stiffness and damping in MuJoCo at a fine step (0.5 ms): the export's `solref` (eq. 3.7's A and B
+    per unit of the mass a resting foot carries), 4x stiffer and 2x more damped (the same damping ratio), a quarter
+    as stiff and half as damped, and the export's with `solimp` 0.99 (the constraint's force closer to the reference)."""
+    def at(k=1.0, b=1.0, imp=None):
+        def f(mj):
+            mj.opt.timestep = 5e-4
+            mj.geom_solref[:, 0] *= k
+            mj.geom_solref[:, 1] *= b
+            if imp is not None:
+                mj.geom_solimp[:] = [imp, imp, 0.001, 0.5, 2.0]
+        return f
+
+    return {"0.5 ms": at(), "A x4, B x2": at(4.0, 2.0), "A /4, B /2": at(0.25, 0.5), "solimp 0.99": at(imp=0.99)}
+
+
 def main(paths: list[str]) -> None:
     import mujoco
 
-    S = convergence(mujoco) if paths[0] == "--convergence" else settings(mujoco)
-    paths = [p for p in paths if p != "--convergence"]
+    groups = {"--convergence": convergence, "--contact": contact}
+    S = groups.get(paths[0], settings)(mujoco)
+    paths = [p for p in paths if p not in groups]
     print("| run | " + " | ".join(S) + " |")
     print("|---|" + "---:|" * len(S))
     for path in paths:
