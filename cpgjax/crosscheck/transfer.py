@@ -179,6 +179,16 @@ def _model(text: str, path: str, terrain, dt=None, joint_spring=None, pipeline: 
     return variant(build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline), dt, joint_spring)
 
 
+def jittered(genome, replays: int = 32, jitter: float = 1e-3, seed: int = 0) -> np.ndarray:
+    """[replays + 1, G] float32: the genome as it is, then ``replays`` copies with every gene moved by N(0, jitter^2)
+    (clipped to the search box); the draw depends on the genome and ``seed`` only, so every replay of a controller
+    (here, in MuJoCo, in any script) sees the same jitter."""
+    g = np.asarray(genome, np.float32)
+    rng = np.random.default_rng([seed, zlib.crc32(g.tobytes())])
+    G = np.concatenate([g[None], np.clip(g[None] + rng.normal(0, jitter, (replays,) + g.shape), -0.8, 0.8)])
+    return G.astype(np.float32)
+
+
 def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0, dt: float | None = None,
                 joint_spring=None, pipeline: str | None = None, terrain: str | None = None, pick=None,
                 progress=None, mujoco_dt: float | None = None) -> list[Replay]:
@@ -211,10 +221,8 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         model = _model(text, str(run.meta.get("model_path", path)), terrain or evolved_on, dt, joint_spring,
                        pipeline or run.pipeline)
         T = float(time or model.time_max)
-        g = np.asarray(genome, np.float32)
-        rng = np.random.default_rng([seed, zlib.crc32(g.tobytes())])   # the jitter depends on the controller only
-        G = np.concatenate([g[None], np.clip(g[None] + rng.normal(0, jitter, (replays,) + g.shape), -0.8, 0.8)])
-        C = from_genomes(family_from_meta(run.meta), model, G.astype(np.float32))   # a CPG's, or a closed loop
+        # the controller and its jittered copies: a CPG's, or a closed loop
+        C = from_genomes(family_from_meta(run.meta), model, jittered(genome, replays, jitter, seed))
         ours = simulate(model, C, time=T)
         mjm = load(model) if mujoco_dt is None else load(model, timestep=mujoco_dt)
         mj, _, _ = mujoco_run(model, C, time=T, mj=mjm)

@@ -66,7 +66,8 @@ def summary(folder: str, top: int = 25) -> str:
     lines = [f"{len(rows)} compiles, {sum(r[2] for r in rows):.0f} s CPU; {len(rows) - len(misses)} read from the "
              f"persistent cache ({sum(r[2] for r in rows if r[3]):.1f} s)",
              f"{len(big)} programs of 0.5 s CPU or more: {sum(r[2] for r in big):.0f} s; "
-             f"{len(misses) - len(big)} smaller (op by op and the like): {sum(r[2] for r in misses if r[2] < 0.5):.0f} s",
+             f"{len(misses) - len(big)} smaller (op by op and the like): "
+             f"{sum(r[2] for r in misses if r[2] < 0.5):.0f} s",
              f"programs XLA compiled more than once (in one process or in several): {len(twice)}, of them of 0.5 s "
              f"or more: {len({r[4] for r in big_twice})} ({sum(r[2] for r in big_twice):.1f} s in all their compiles)",
              "", "heaviest (CPU s, program, test):"]

@@ -1,28 +1,27 @@
 """Does any one randomised parameter make a gait fall *here* the way it falls in MuJoCo C? (docs/results/closed-loop.md)
 
-Each run's plain best (`cpgjax best RUN --ctl`) is replayed on flat ground, exact joints, 5 s, 32 times with its
-genes jittered (sd 1e-3, the jitter of `cpgjax transfer`'s replays; the first copy unjittered), once nominal and
-once under each single variation at the edge of (or beyond) the domain preset's range: friction x0.7 / x1.3,
-the ground's stiffness A x0.5 / x2 and damping B x0.5 / x2 (eq. 3.7), torque limits x0.8, servo gains x0.8 /
-x1.2, the bristle x1000, masses x1.1.  Printed per run and condition: falls of the 32 (tilt past 60 degrees) and
-the unjittered copy's speed (m/s).  Run:
+Each run's plain best is replayed on flat ground, exact joints, 5 s, as it is and 32 times with its genes
+jittered (`cpgjax transfer`'s jitter, `crosscheck.transfer.jittered`: the same copies its replays use), once
+nominal and once under each single variation at the edge of (or beyond) the domain preset's range: friction
+x0.7 / x1.3, the ground's stiffness A x0.5 / x2 and damping B x0.5 / x2 (eq. 3.7), torque limits x0.8, servo gains
+x0.8 / x1.2, the bristle x1000, masses x1.1.  Printed per run and condition: falls of the 32 jittered copies (tilt
+past 60 degrees) and the unjittered copy's speed (m/s).  Run:
 
     .venv/bin/python docs/experiments/falls_here.py RUN.h5 [RUN.h5 ...]
 """
 
 import os
-import subprocess
 import sys
-import tempfile
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 import cpgjax  # noqa: F401  (first: the host devices)
-import jax
-import jax.numpy as jnp
-
+from cpgjax.crosscheck.transfer import jittered
 from cpgjax.episode.batch import evaluate
-from cpgjax.io.ctl import read_ctl
+from cpgjax.episode.policy import family_from_meta, from_genomes
+from cpgjax.io.results import read_run
 from cpgjax.io.wl.parser import load_wl
 from cpgjax.sim.model import build_model
 from cpgjax.sim.variation import Variation
@@ -36,17 +35,12 @@ CONDITIONS = {"nominal": {}, "friction0.7": dict(friction=0.7), "friction1.3": d
 
 def main(runs: list[str]) -> None:
     m = build_model(load_wl("models/quadruped.wl"), pipeline="exact")
-    tmp = tempfile.mkdtemp()
-    best = []
-    for r in runs:
-        ctl = os.path.join(tmp, os.path.basename(r) + ".ctl")
-        subprocess.run([os.path.join(os.path.dirname(sys.executable), "cpgjax"), "best", r, "--ctl", ctl],
-                       check=True, stdout=subprocess.DEVNULL)
-        best.append(np.asarray(read_ctl(ctl, m.n_ctrl, m.harmonics).coeffs, np.float32))
-    jit = np.random.default_rng(1).normal(0, 1e-3, (REPLAYS,) + best[0].shape).astype(np.float32)
-    jit[0] = 0
-    coeffs = np.concatenate([c[None] + jit for c in best])
-    n = len(coeffs)
+    genomes = []
+    for path in runs:
+        run = read_run(path)
+        genomes.append(jittered(run.best()[3], REPLAYS))
+    coeffs = from_genomes(family_from_meta(run.meta), m, np.concatenate(genomes))
+    n = len(genomes) * (REPLAYS + 1)
 
     def variation(**scale):
         v = Variation.nominal(m, n)
@@ -62,12 +56,12 @@ def main(runs: list[str]) -> None:
     res = {}
     for k, scale in CONDITIONS.items():
         r = f(coeffs, variation(**scale))
-        res[k] = (np.asarray(r["down"]).reshape(len(runs), REPLAYS), np.asarray(r["speed"]).reshape(len(runs), REPLAYS))
+        res[k] = [np.asarray(r[q]).reshape(len(runs), REPLAYS + 1) for q in ("down", "speed")]
     print("| run | " + " | ".join(CONDITIONS) + " |")
     print("|---|" + "---:|" * len(CONDITIONS))
-    for i, r in enumerate(runs):
-        cells = [f"{int(res[k][0][i].sum())}, {res[k][1][i][0]:.2f}" for k in CONDITIONS]
-        print(f"| {os.path.basename(r)} | " + " | ".join(cells) + " |")
+    for i, path in enumerate(runs):
+        cells = [f"{int(res[k][0][i, 1:].sum())}, {res[k][1][i, 0]:.2f}" for k in CONDITIONS]
+        print(f"| {os.path.basename(path)} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

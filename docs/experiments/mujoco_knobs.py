@@ -8,21 +8,19 @@ with one of MuJoCo's settings changed at a time: the friction cone elliptic inst
 per run and setting: falls of the 32 and the unjittered replay's speed (m/s).  Run:
 
     .venv/bin/python docs/experiments/mujoco_knobs.py RUN.h5 [RUN.h5 ...]
-    .venv/bin/python docs/experiments/mujoco_knobs.py --convergence RUN.h5 [RUN.h5 ...]   # the step and integrator alone
-    .venv/bin/python docs/experiments/mujoco_knobs.py --contact RUN.h5 [RUN.h5 ...]       # the ground's stiffness at 0.5 ms
+    .venv/bin/python docs/experiments/mujoco_knobs.py --convergence RUN.h5 [...]   # the step and integrator alone
+    .venv/bin/python docs/experiments/mujoco_knobs.py --contact RUN.h5 [...]       # the ground's stiffness at 0.5 ms
 """
 
 import os
 import sys
-import zlib
 
 import numpy as np
 
 import cpgjax  # noqa: F401  (first: the host devices)
-
 from cpgjax.crosscheck.engines import mujoco_run
 from cpgjax.crosscheck.mjcf import load
-from cpgjax.crosscheck.transfer import _model, run_setting
+from cpgjax.crosscheck.transfer import _model, jittered, run_setting
 from cpgjax.episode.policy import family_from_meta, from_genomes
 from cpgjax.io.results import read_run
 
@@ -39,9 +37,10 @@ def settings(mujoco):
     def solimp(mj):
         mj.geom_solimp[:] = [0.99, 0.99, 0.001, 0.5, 2.0]
 
-    return {"as exported": None, "elliptic": opt(cone=mujoco.mjtCone.mjCONE_ELLIPTIC), "impratio10": opt(impratio=10.0),
-            "noslip3": opt(noslip_iterations=3), "dt1ms": opt(timestep=0.001),
-            "RK4": opt(integrator=mujoco.mjtIntegrator.mjINT_RK4), "Euler": opt(integrator=mujoco.mjtIntegrator.mjINT_EULER),
+    integrator = mujoco.mjtIntegrator
+    return {"as exported": None, "elliptic": opt(cone=mujoco.mjtCone.mjCONE_ELLIPTIC),
+            "impratio10": opt(impratio=10.0), "noslip3": opt(noslip_iterations=3), "dt1ms": opt(timestep=0.001),
+            "RK4": opt(integrator=integrator.mjINT_RK4), "Euler": opt(integrator=integrator.mjINT_EULER),
             "solimp.99": solimp}
 
 
@@ -62,7 +61,8 @@ def convergence(mujoco):
 def contact(mujoco):
     """The ground's stiffness and damping in MuJoCo at a fine step (0.5 ms): the export's `solref` (eq. 3.7's A and B
     per unit of the mass a resting foot carries), 4x stiffer and 2x more damped (the same damping ratio), a quarter
-    as stiff and half as damped, and the export's with `solimp` 0.99 (the constraint's force closer to the reference)."""
+    as stiff and half as damped, and the export's with `solimp` 0.99 (the constraint's force closer to the
+    reference)."""
     def at(k=1.0, b=1.0, imp=None):
         def f(mj):
             mj.opt.timestep = 5e-4
@@ -89,10 +89,7 @@ def main(paths: list[str]) -> None:
         _, time, evolved_on = run_setting(run)
         model = _model(str(run.meta["model_text"]), str(run.meta.get("model_path", path)), evolved_on, None, None,
                        run.pipeline)
-        g = np.asarray(genome, np.float32)
-        rng = np.random.default_rng([0, zlib.crc32(g.tobytes())])       # cpgjax transfer's jitter
-        G = np.concatenate([g[None], np.clip(g[None] + rng.normal(0, 1e-3, (REPLAYS,) + g.shape), -0.8, 0.8)])
-        C = from_genomes(family_from_meta(run.meta), model, G.astype(np.float32))
+        C = from_genomes(family_from_meta(run.meta), model, jittered(genome, REPLAYS))   # cpgjax transfer's jitter
         cells = []
         for change in S.values():
             mj = load(model)
