@@ -187,3 +187,57 @@ def period(t, angle):
     idx = np.where((s[:-1] < 0) & (s[1:] >= 0))[0]
     tc = t[idx] - angle[idx] * (t[idx + 1] - t[idx]) / (angle[idx + 1] - angle[idx])
     return np.diff(tc).mean()
+
+
+# Shared runs of the small analytic cases: one compiled program each for several tests (tests/sim/test_contact.py,
+# tests/sim/test_variation.py), the robots of a batch differing by their :class:`Variation` only.  Every scale the
+# tests compare is given (ones and zeros for the nominal robot), so each case is one tree structure, one program;
+# the results are cached for the process (read them, never change them).
+
+def varied_run(model, time: float, **fields):
+    """``model``'s robots (passive: no controller) for ``time`` s, recorded, each with its own scales: ``fields``
+    are Variation fields as one value per robot (``mass`` scales every body's)."""
+    import jax
+    import jax.numpy as jnp
+
+    from cpgjax.episode.rollout import rollout
+    from cpgjax.sim.variation import Variation
+
+    B = len(next(iter(fields.values())))
+    f32 = lambda a: jnp.asarray(a, jnp.float32)  # noqa: E731
+    var = Variation.nominal(model, B)
+    scales = {"stiffness": np.ones(B), "damping": np.ones(B), **fields}
+    var = var._replace(**{k: f32(v)[None] if k == "mass" else f32(v) for k, v in scales.items()})
+    coeffs = jnp.zeros((model.n_ctrl, model.n_coeff, B))
+    return jax.tree.map(np.asarray, jax.jit(lambda v: rollout(model, coeffs, time=time, var=v, record=True))(var))
+
+
+# Seven 10 kg boxes (10 cm cubes) on flat ground for 2 s, recorded at 200 Hz: resting from 5 cm (their bottom
+# 0 m) with mass, the ground's stiffness A and its damping B scaled (eq. 3.7), the last one dropped from 50 cm
+# (lifted 45 cm).
+BOXES = dict(mass=[1.0, 0.8, 1.5, 1.0, 1.0, 1.0, 1.0], stiffness=[1.0, 1.0, 1.0, 0.5, 1.0, 1.5, 1.0],
+             damping=[1.0, 1.0, 1.0, 1.5, 0.6, 1.0, 1.0], lift=[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.45])
+BOX_DROPPED = 6
+
+
+_CACHE: dict = {}
+
+
+def boxes():
+    """The run of :data:`BOXES` (a dict of arrays, the robot last), made once per process."""
+    if "boxes" not in _CACHE:
+        _CACHE["boxes"] = varied_run(box(z=0.05, mass=10.0, log_rate=200), 2.0, **BOXES)
+    return _CACHE["boxes"]
+
+
+# Five 2 kg blocks on a 0.3 rad ramp (tan 0.31) for 2 s, friction mu 0.4 scaled per block: mu 0.6 (sticks),
+# 0.1 (slides), 0.4 (sticks), 0.24 (slides), and 0.6 again with a 100x stiffer friction bristle.
+SLOPE = 0.3
+SLOPES = dict(friction=[1.5, 0.25, 1.0, 0.6, 1.5], bristle=[1.0, 1.0, 1.0, 1.0, 100.0])
+
+
+def slopes():
+    """The run of :data:`SLOPES` (``block_on_slope(SLOPE, 0.4)``), made once per process."""
+    if "slopes" not in _CACHE:
+        _CACHE["slopes"] = varied_run(block_on_slope(SLOPE, 0.4), 2.0, **SLOPES)
+    return _CACHE["slopes"]

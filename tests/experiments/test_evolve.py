@@ -127,14 +127,14 @@ def cli(*argv: str) -> int:
 
 def test_cli_evolve_resume_best_search_plot(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    m = "analytic:sphere:10"
-    assert cli("evolve", m, "--generations", "6", "--pocket", "2", "--chunk", "3", "--out", "r.h5",
-               "--quiet") == 0
+    m = SPEC                                  # CFG's settings: test_run_file_contents's compiled program
+    ga = ["--pocket", "4", "--crossover", "--gamma", "0.1", "--seed", "5", "--chunk", "4"]
+    assert cli("evolve", m, "--generations", "6", *ga, "--out", "r.h5", "--quiet") == 0
     assert cli("evolve", m, "--generations", "6", "--out", "r.h5", "--quiet") == 2
     assert "--resume" in capsys.readouterr().err
     assert cli("evolve", m, "--generations", "9", "--out", "r.h5", "--resume", "--quiet") == 0
     run = read_run("r.h5")
-    assert run.completed == 9 and run.config["pocket"] == 2 and run.config["chunk"] == 3
+    assert run.completed == 9 and run.config["pocket"] == 4 and run.config["chunk"] == 4
     assert cli("evolve", m, "--pocket", "3", "--out", "r.h5", "--resume", "--quiet") == 2
     assert "pocket" in capsys.readouterr().err
 
@@ -150,7 +150,7 @@ def test_cli_evolve_resume_best_search_plot(tmp_path, monkeypatch, capsys):
     assert read_run("s.h5").kind == "amc"
     assert cli("plot", "r.h5", "s.h5", "--out", "fig.png") == 0
     assert os.path.getsize("fig.png") > 10_000
-    assert cli("evolve", m, "--generations", "3", "--out", "r.h5", "--overwrite", "--quiet") == 0
+    assert cli("evolve", m, "--generations", "3", *ga, "--out", "r.h5", "--overwrite", "--quiet") == 0
     assert read_run("r.h5").completed == 3
     assert cli("evolve", "analytic:nope:3", "--quiet") == 2
 

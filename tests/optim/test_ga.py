@@ -163,7 +163,8 @@ def test_nan_and_diverged_fitness_are_replaced_by_the_worst_finite():
     assert np.all(np.asarray(out) == 0) and int(bad) == 3
     pop = jnp.zeros((N, G))
     f20 = jnp.concatenate([f, jnp.full(N - 6, jnp.nan)])
-    for fit in (f20, jnp.full(N, jnp.nan)):
+    # float32, not weakly typed: the program of the mutation-rate test above (another input type is another)
+    for fit in (jnp.asarray(f20, jnp.float32), jnp.full(N, jnp.nan, jnp.float32)):
         for cross in (False, True):
             for shift in ("clip", "shift"):
                 params = ga.GAConfig(crossover=cross, selection=shift, pocket=2).params()

@@ -26,7 +26,8 @@ def model_path(name):
 def trot():
     m = load_model(model_path("quadruped.wl"))
     c = np.asarray(read_ctl(model_path("quadruped-trot.ctl"), n_dof=m.n_ctrl, harmonics=m.harmonics).coeffs)
-    return m, c, record_ours(m, c, time=1.5, fps=8)
+    # 6 s at 2 frames a second: the episode of the trot's GIF caption (tests/test_figures.py), one program
+    return m, c, record_ours(m, c, time=6.0, fps=2)
 
 
 def robot_masks(model, poses, camera):
@@ -40,8 +41,8 @@ def test_recording_is_the_evaluation(trot):
     from cpgjax.episode.batch import simulate
 
     m, c, poses = trot
-    r = simulate(m, c, time=1.5)
-    assert poses.frames == 13 and np.allclose(np.diff(poses.t), 0.125)
+    r = simulate(m, c, time=6.0)
+    assert poses.frames == 13 and np.allclose(np.diff(poses.t), 0.5)
     assert poses.fitness == pytest.approx(float(r["fitness"]), rel=1e-5, abs=1e-7)
     assert distance(m, poses)[-1] == pytest.approx(float(r["distance"]), abs=1e-5)
     on = touching(m, poses)
@@ -233,8 +234,8 @@ def test_a_run_files_best_renders_through_the_command_line(tiny_runs, tmp_path, 
 
     run = tiny_runs["thesis"]
     out = tmp_path / "best.gif"
-    # 1.5 s at 8 frames a second: the recording program of the ``trot`` fixture
-    assert cli.main(["render", run, "--generation", "1", "--time", "1.5", "--fps", "8", "--size", "80x60",
+    # 6 s at 2 frames a second: the recording program of the ``trot`` fixture
+    assert cli.main(["render", run, "--generation", "1", "--time", "6", "--fps", "2", "--size", "80x60",
                      "--camera", "fixed", "--out", str(out), "--quiet"]) == 0
     assert out.stat().st_size > 1000 and "fitness" in capsys.readouterr().out
     assert cli.main(["render", run, "--generation", "5", "--out", str(tmp_path / "x.gif")]) == 2

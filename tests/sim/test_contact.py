@@ -2,47 +2,43 @@
 
 import numpy as np
 import pytest
-from simcases import block_on_slope, box
+from simcases import BOX_DROPPED, SLOPE, SLOPES, box, boxes, slopes
 
 from cpgjax.episode.batch import simulate
 
 
 def test_resting_penetration_is_m_g_over_A_contacts():
-    m = box(z=0.05, mass=10.0)
-    r = simulate(m, np.zeros((0, 5)), time=2.0, record=True)
-    depth = 0.05 - r["traj"]["x"][-1, 2, 0]
+    r = boxes()                                   # the nominal box: tests/simcases.py, one program for the file
+    depth = 0.05 - r["traj"]["x"][-1, 2, 0, 0]
     expected = 10.0 * 9.81 / (1e5 * 4)  # four bottom corners
     assert abs(depth - expected) / expected < 0.02, (depth, expected)
 
 
 def test_static_friction_holds_a_block_on_a_slope_below_the_friction_angle():
-    slope = 0.3  # tan = 0.31
-    m = block_on_slope(slope, mu=0.6)
-    r = simulate(m, np.zeros((0, 5)), time=2.0, record=True)
-    y, t = r["traj"]["x"][:, 1, 0], r["traj"]["t"]
+    r = slopes()                                  # mu 0.6 on a 0.3 rad ramp (tan 0.31)
+    y, t = r["traj"]["x"][:, 1, 0, 0], r["traj"]["t"]
     creep = abs(y[-1] - y[25]) / (t[-1] - t[25])       # after settling (0.5 s)
     assert creep < 1e-3, f"creeps {creep * 1e3:.3f} mm/s"
 
 
 def test_dynamic_friction_lets_it_slide_with_the_coulomb_acceleration():
-    slope = 0.3
-    mu = 0.1
-    m = block_on_slope(slope, mu=mu)
-    r = simulate(m, np.zeros((0, 5)), time=2.0, record=True)
+    r = slopes()                                  # mu 0.1 on the same ramp
     t = r["traj"]["t"]
-    v = r["traj"]["v"][:, :, 0]
+    v = r["traj"]["v"][:, :, 0, 1]
     speed = np.linalg.norm(v, axis=1)
     sel = (t > 0.5) & (t < 1.8)
     acc = np.polyfit(t[sel], speed[sel], 1)[0]
-    expected = 9.81 * (np.sin(slope) - mu * np.cos(slope))
+    mu = 0.4 * SLOPES["friction"][1]
+    expected = 9.81 * (np.sin(SLOPE) - mu * np.cos(SLOPE))
     assert abs(acc - expected) / expected < 0.05, (acc, expected)
 
 
 def test_a_body_sinks_no_deeper_than_a_few_millimetres_when_dropped():
-    m = box(z=0.5, mass=10.0)
-    r = simulate(m, np.zeros((0, 5)), time=1.5)
-    assert not r["diverged"]
-    assert r["depth"] < 0.01
+    r = boxes()                                   # the box dropped from 0.5 m
+    assert not r["diverged"][BOX_DROPPED]
+    assert r["depth"][BOX_DROPPED] < 0.01
+    z = r["traj"]["x"][:, 2, 0, BOX_DROPPED]
+    assert z[0] > 0.49 and abs(z[-1] - r["traj"]["x"][-1, 2, 0, 0]) < 1e-4      # it fell, and rests as the others
 
 
 @pytest.mark.slow  # 3 s of the quadruped on a ramp; fast: a block held on a slope below its friction angle, this file
