@@ -158,6 +158,10 @@ def test_read_only_folder(tmp_path, capsys):
 # --- Ctrl-C on a real process ----------------------------------------------------------------------
 
 
+# a GA run of experiments/test_evolve.py (CFG, its CLI test): one compiled program for the runs that are interrupted
+SHARED_GA = ("analytic:diverging:10", "--pocket", "4", "--crossover", "--gamma", "0.1", "--seed", "5", "--chunk", "4")
+
+
 def _cpgjax(*argv: str) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")}
     # SIGINT as a terminal gives it: a suite started in the background (`make test &`) runs with SIGINT
@@ -216,8 +220,8 @@ def test_ctrl_c_during_compilation_exits_130_and_resume_completes(tmp_path, caps
 
 def test_ctrl_c_between_generations_keeps_them_and_resume_completes(tmp_path, capsys):
     out = tmp_path / "g.h5"
-    proc = _cpgjax("evolve", "analytic:sphere:10", "--population", "4", "--generations", "3000", "--out", str(out),
-                   "--quiet")
+    # experiments/test_evolve.py's run settings: its compiled program, which the subprocess loads from the cache
+    proc = _cpgjax("evolve", *SHARED_GA, "--generations", "3000", "--out", str(out), "--quiet")
     _, err = _interrupt_when(proc, lambda: _completed(out) >= 1)
     argv = _check_interrupted(proc, err, out)
     done = read_run(out).completed

@@ -80,7 +80,7 @@ from cpgjax.experiments.evolve import run_ga
 from cpgjax.optim.ga import GAConfig
 from cpgjax.optim.analytic import analytic_problem
 
-cfg = GAConfig(generations=100000, pocket=4, crossover=True, gamma=0.1, seed=9, chunk=1)
+cfg = GAConfig(generations=100000, pocket=4, crossover=True, gamma=0.1, seed=9, chunk=4)
 run_ga(analytic_problem("{spec}"), cfg, sys.argv[1], resume=True,
        callback=lambda done, info: print(done, flush=True))
 """
@@ -113,7 +113,8 @@ def test_sigkill_mid_run_leaves_a_readable_file_that_resumes_to_the_same_result(
     assert np.all(np.isfinite(killed.genomes))
     total = 40
     problem = analytic_problem(SPEC)
-    cfg = GAConfig(generations=total, pocket=4, crossover=True, gamma=0.1, seed=9, chunk=1)
+    # CFG's settings (another seed): the program test_run_file_contents compiled, which the subprocess loads
+    cfg = GAConfig(generations=total, pocket=4, crossover=True, gamma=0.1, seed=9, chunk=4)
     run_ga(problem, cfg, out, resume=True)
     ref = tmp_path / "ref.h5"
     run_ga(problem, cfg, ref)

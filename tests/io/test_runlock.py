@@ -72,8 +72,9 @@ def test_two_real_processes_one_file(tmp_path, capsys):
     from cpgjax.cli import main
 
     out = tmp_path / "same.h5"
-    a = _cpgjax("evolve", "analytic:sphere:4", "--population", "8", "--generations", "100000", "--seed", "0",
-                "--quiet", "--out", str(out))
+    # experiments/test_evolve.py's run settings (other seeds): its compiled program, loaded from the cache
+    ga = ("analytic:diverging:10", "--pocket", "4", "--crossover", "--gamma", "0.1", "--chunk", "4")
+    a = _cpgjax("evolve", *ga, "--generations", "100000", "--seed", "0", "--quiet", "--out", str(out))
     try:
         deadline = time.monotonic() + 180
         while _completed(out) < 3 and a.poll() is None and time.monotonic() < deadline:
@@ -82,8 +83,8 @@ def test_two_real_processes_one_file(tmp_path, capsys):
         created = read_attrs(out)["created"]
 
         capsys.readouterr()
-        assert main(["evolve", "analytic:sphere:4", "--population", "8", "--generations", "20", "--seed", "5",
-                     "--quiet", "--out", str(out), "--overwrite"]) == 2
+        assert main(["evolve", *ga, "--generations", "20", "--seed", "5", "--quiet", "--out", str(out),
+                     "--overwrite"]) == 2
         lines = capsys.readouterr().err.strip().splitlines()
         assert len(lines) == 1 and str(out) in lines[0] and f"pid {a.pid}" in lines[0], lines
         attrs = read_attrs(out)
@@ -102,8 +103,8 @@ def test_two_real_processes_one_file(tmp_path, capsys):
         if a.poll() is None:
             a.kill()
     assert read_run(out).writer is None
-    assert main(["evolve", "analytic:sphere:4", "--population", "8", "--generations", "5", "--seed", "5",
-                 "--quiet", "--out", str(out), "--overwrite"]) == 0       # the lock left by kill -9 did not block
+    assert main(["evolve", *ga, "--generations", "5", "--seed", "5", "--quiet", "--out", str(out),
+                 "--overwrite"]) == 0                                      # the lock left by kill -9 did not block
     assert read_attrs(out)["seed"] == 5 and read_run(out).completed == 5
     assert not os.path.exists(runlock.lock_path(out))
 
