@@ -54,6 +54,7 @@ import datetime as _dt
 import json
 import os
 import platform
+import socket
 import sys
 import time
 from collections.abc import Mapping
@@ -394,9 +395,14 @@ def _open(path: str | os.PathLike[str], mode: str = "r") -> h5py.File:
 
 
 def read_attrs(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """The root attributes of a run file (no datasets)."""
-    with _open(path) as f:
-        _check(f, path)
+    """The root attributes of a run file (no datasets); safe on a file another process is writing (a read torn
+    by a write tried again, as :func:`read_run`)."""
+    return _while_written(os.fspath(path), _read_attrs)[1]
+
+
+def _read_attrs(p: str) -> dict[str, Any]:
+    with _open(p) as f:
+        _check(f, p)
         return {k: _decode(v) for k, v in f.attrs.items()}
 
 
@@ -418,28 +424,36 @@ def _unreadable(p: str, what: str, e: BaseException, last_ok: int | None = None)
 READ_TRIES = 10        # a file being written: tries to read a consistent state (0.2 s apart) before giving up
 
 
+def _while_written(p: str, read):
+    """``(writer, read(p))``: while another process writes the file (``writer``, :func:`runlock.holder`), a read
+    torn by a write (HDF5's own errors, or the file not yet whole) is tried again, 0.2 s apart, READ_TRIES
+    times; with nobody writing, the error is the file's."""
+    for attempt in range(READ_TRIES):
+        writer = runlock.holder(p)
+        # this process holding the lock (a resume checking its file) is not writing while it reads
+        other = writer is not None and not (writer.get("pid") == os.getpid()
+                                             and writer.get("host") == socket.gethostname())
+        try:
+            try:
+                return writer, read(p)
+            except (OSError, RuntimeError, KeyError) as e:    # HDF5's own errors of a read torn by a write
+                if not other:
+                    raise
+                raise _unreadable(p, "the file's structure", e) from e
+        except ResultsError:
+            if not other or attempt == READ_TRIES - 1:
+                raise
+            time.sleep(0.2)
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
 def read_run(path: str | os.PathLike[str]) -> Run:
     """Read a run file; safe on a file another process is writing (opened without HDF5's locking, the
     rows cut to the generations complete in every dataset, a read torn by a write tried again).
     ``Run.writer`` says who is writing it (None: nobody)."""
-    p = os.fspath(path)
-    for attempt in range(READ_TRIES):
-        writer = runlock.holder(p)
-        try:
-            try:
-                run = _read_run(p)
-            except (OSError, RuntimeError, KeyError) as e:    # HDF5's own errors of a read torn by a write
-                if writer is None:
-                    raise
-                raise _unreadable(p, "the file's structure", e) from e
-        except ResultsError:
-            if writer is None or attempt == READ_TRIES - 1:
-                raise
-            time.sleep(0.2)
-            continue
-        run.writer = writer
-        return run
-    raise AssertionError("unreachable")  # pragma: no cover
+    writer, run = _while_written(os.fspath(path), _read_run)
+    run.writer = writer
+    return run
 
 
 def _read_run(p: str) -> Run:

@@ -127,13 +127,39 @@ def test_a_read_torn_by_hdf5_while_a_writer_holds_the_file_is_tried_again(tmp_pa
     from cpgjax.optim.factory import make_problem
     from cpgjax.optim.ga import GAConfig
 
-    # the first writer's run above, two generations (its compiled program)
-    run_ga(make_problem("analytic:sphere:4"), GAConfig(population=8, generations=2), path)
+    # the first writer's settings above, two generations (its compiled program)
+    run_ga(make_problem("analytic:diverging:10"),
+           GAConfig(generations=2, pocket=4, crossover=True, gamma=0.1, seed=5, chunk=4), path)
     monkeypatch.setattr(results, "_read_run", torn_once)
     monkeypatch.setattr(results.time, "sleep", lambda s: None)
-    with runlock.hold(path):
-        run = read_run(path)
+    writing = {"pid": os.getpid() + 1, "host": "elsewhere"}          # another process holds the lock
+    monkeypatch.setattr(runlock, "holder", lambda p: writing)
+    run = read_run(path)
     assert run.completed == 2 and len(calls) == 2 and run.writer is not None
     calls.clear()
+    monkeypatch.setattr(runlock, "holder", lambda p: None)
     with pytest.raises(RuntimeError):                      # nobody writes it: nothing to wait for
         read_run(path)
+    calls.clear()
+    with runlock.hold(path), pytest.raises(RuntimeError):  # this process holds it (a resume): not being written
+        monkeypatch.undo()
+        monkeypatch.setattr(results, "_read_run", torn_once)
+        read_run(path)
+    # the attributes alone too (`read_attrs`): HDF5 found the file shorter than its superblock says, mid-write
+    real_attrs, calls[:] = results._read_attrs, []
+
+    def truncated_once(p):
+        calls.append(p)
+        if len(calls) == 1:
+            raise ResultsError(f"{p}: {results.NOT_A_RUN} (HDF5: truncated file: eof = 977624, "
+                               "sblock->base_addr = 0, stored_eof = 978424)")
+        return real_attrs(p)
+
+    monkeypatch.setattr(results, "_read_attrs", truncated_once)
+    monkeypatch.setattr(results.time, "sleep", lambda s: None)
+    monkeypatch.setattr(runlock, "holder", lambda p: writing)
+    assert read_attrs(path)["completed"] == 2 and len(calls) == 2
+    calls.clear()
+    monkeypatch.setattr(runlock, "holder", lambda p: None)
+    with pytest.raises(ResultsError, match="truncated"):   # nobody writes it: the file's error
+        read_attrs(path)
