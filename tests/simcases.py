@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from cpgjax.io.wl import parse_wl
@@ -220,14 +222,10 @@ BOXES = dict(mass=[1.0, 0.8, 1.5, 1.0, 1.0, 1.0, 1.0], stiffness=[1.0, 1.0, 1.0,
 BOX_DROPPED = 6
 
 
-_CACHE: dict = {}
-
-
+@functools.cache
 def boxes():
     """The run of :data:`BOXES` (a dict of arrays, the robot last), made once per process."""
-    if "boxes" not in _CACHE:
-        _CACHE["boxes"] = varied_run(box(z=0.05, mass=10.0, log_rate=200), 2.0, **BOXES)
-    return _CACHE["boxes"]
+    return varied_run(box(z=0.05, mass=10.0, log_rate=200), 2.0, **BOXES)
 
 
 # Five 2 kg blocks on a 0.3 rad ramp (tan 0.31) for 2 s, friction mu 0.4 scaled per block: mu 0.6 (sticks),
@@ -236,8 +234,7 @@ SLOPE = 0.3
 SLOPES = dict(friction=[1.5, 0.25, 1.0, 0.6, 1.5], bristle=[1.0, 1.0, 1.0, 1.0, 100.0])
 
 
+@functools.cache
 def slopes():
     """The run of :data:`SLOPES` (``block_on_slope(SLOPE, 0.4)``), made once per process."""
-    if "slopes" not in _CACHE:
-        _CACHE["slopes"] = varied_run(block_on_slope(SLOPE, 0.4), 2.0, **SLOPES)
-    return _CACHE["slopes"]
+    return varied_run(block_on_slope(SLOPE, 0.4), 2.0, **SLOPES)

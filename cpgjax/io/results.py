@@ -54,7 +54,6 @@ import datetime as _dt
 import json
 import os
 import platform
-import socket
 import sys
 import time
 from collections.abc import Mapping
@@ -431,8 +430,7 @@ def _while_written(p: str, read):
     for attempt in range(READ_TRIES):
         writer = runlock.holder(p)
         # this process holding the lock (a resume checking its file) is not writing while it reads
-        other = writer is not None and not (writer.get("pid") == os.getpid()
-                                             and writer.get("host") == socket.gethostname())
+        other = writer is not None and not runlock.is_mine(writer)
         try:
             try:
                 return writer, read(p)

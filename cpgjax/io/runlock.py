@@ -47,6 +47,11 @@ def _me() -> dict:
                                                                                    + sys.argv[1:])[:300]}
 
 
+def is_mine(info: dict | None) -> bool:
+    """Whether a :func:`holder`'s info is this very process (this pid on this host)."""
+    return info is not None and info.get("pid") == os.getpid() and info.get("host") == socket.gethostname()
+
+
 def _read_info(fd: int) -> dict:
     try:
         os.lseek(fd, 0, os.SEEK_SET)
