@@ -248,7 +248,8 @@ def evaluation_options(p: argparse.ArgumentParser) -> None:
                         "10/5/10 %%, jitter 1e-3, fall_ends on, fall_zero off: on, a fall forfeits the episode; "
                         "fall_survival off: on, a fall scales the episode's score by the share of it "
                         "before the fall; off: torque, stiffness, damping, relief, and for closed-loop controllers "
-                        "noise, latency); preset=domain: domain randomisation (docs/evolution.md)")
+                        "noise, latency, command (rad/s: steering) and speed (m/s: its score's cap)); "
+                        "preset=domain: domain randomisation (docs/evolution.md)")
 
 
 def run_file_options(p: argparse.ArgumentParser, what: str = "run", *, resume: bool = True) -> None:

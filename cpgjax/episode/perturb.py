@@ -31,7 +31,8 @@ episodes, each with fresh perturbations drawn per robot from its own key:
 * (closed-loop controllers that read the ``command``) the task: a commanded turning rate ``U(-command, command)``
   rad/s for the first half of the episode and another for the second (:func:`commands`,
   :class:`cpgjax.episode.steering.Schedule`), the episode scored by how well it follows them
-  (:func:`cpgjax.episode.steering.tracking_fitness`) instead of eq. 4.6.
+  (:func:`cpgjax.episode.steering.tracking_fitness`) instead of eq. 4.6; ``speed`` (m/s, 0: none) caps the speed
+  that score credits.
 
 **Domain randomisation** is the named preset :data:`PRESETS` ``domain`` (``--perturb preset=domain``): every range
 above at once, wide (docs/evolution.md); keys given beside it override its values.
@@ -83,6 +84,7 @@ class Perturbations:
     noise: float = 0.0         # sensor noise, in each sensor's scale (sd; closed-loop controllers)
     latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
     command: float = 0.0       # rad/s: range of the commanded turning rate (0: no command, eq. 4.6's score)
+    speed: float = 0.0         # m/s: the tracking fitness credits the speed up to this (0: no cap; needs command)
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -91,7 +93,7 @@ class Perturbations:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
         for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "torque",
-                  "stiffness", "damping", "relief", "noise", "command"):
+                  "stiffness", "damping", "relief", "noise", "command", "speed"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -102,6 +104,9 @@ class Perturbations:
             raise ValueError(f"perturbation relief is a share of the roughness and must be <= 1, got {self.relief}")
         if self.latency not in (0, 1):
             raise ValueError(f"perturbation latency is 0 or 1 step, got {self.latency}")
+        if self.speed > 0 and self.command == 0:
+            raise ValueError("perturbation speed caps the tracking fitness of a commanded turning rate: give command "
+                             "too (e.g. command=0.3,speed=0.12)")
         if self.fall_zero and self.fall_survival:
             raise ValueError("fall_zero and fall_survival exclude each other: a fall forfeits the episode or scales it")
 
@@ -123,7 +128,7 @@ class Perturbations:
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0, "latency": 0,
-         "command": 0.0}
+         "command": 0.0, "speed": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the

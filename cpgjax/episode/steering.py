@@ -28,7 +28,10 @@ phases of ``|mean turning rate - c|`` (rad/s).  The **tracking fitness** (:func:
 a product, not a difference: a gait that does not move scores 0 whatever it turns (a difference would let a
 robot that stands and turns on the spot score above one that walks), a gait that walks straight when told to
 turn by ``limit`` (the command's range) scores 0, and between the two the score falls linearly with the error,
-in the units of the speed it is made of (no weight between metres and radians to choose).
+in the units of the speed it is made of (no weight between metres and radians to choose).  With a **speed cap**
+``v_max`` (``--perturb command=R,speed=V``) the heading fitness is credited up to ``v_max`` only, ``min(heading
+fitness, v_max)``: past it a gait gains only by following the command better (and, with ``fall_zero``, by not
+falling), not by walking faster.
 """
 
 from __future__ import annotations
@@ -149,6 +152,9 @@ def track_finish(acc, T: float, switch: float, first, second):
     return acc["advance"] / T, err
 
 
-def tracking_fitness(heading_fitness, turn_error, limit: float):
-    """``heading_fitness x max(0, 1 - turn_error / (TOLERANCE limit))`` (see the module docstring)."""
+def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0):
+    """``heading_fitness x max(0, 1 - turn_error / (TOLERANCE limit))``, the heading fitness taken up to ``cap`` m/s
+    when ``cap > 0`` (see the module docstring)."""
+    if cap > 0:
+        heading_fitness = jnp.minimum(heading_fitness, cap)
     return heading_fitness * jnp.maximum(0.0, 1.0 - turn_error / (TOLERANCE * limit))

@@ -167,6 +167,20 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
                    evaluate=evaluate_genomes, meta=meta)
 
 
+def episode_scores(r: dict, p: Perturbations, steered: bool = False) -> dict:
+    """An episode's results ``r`` with its fitness as the robust evaluation scores it: the tracking fitness of a
+    commanded turning rate (``steered``: :func:`cpgjax.episode.steering.tracking_fitness`, capped at ``p.speed``),
+    not eq. 4.6's; then a fall forfeits the episode (``fall_zero``) or scales it by the share of it the robot stayed
+    up (``fall_survival``)."""
+    if steered:
+        r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command, p.speed))
+    if p.fall_zero:
+        r = dict(r, fitness=jnp.where(r["down"], 0.0, r["fitness"]))
+    elif p.fall_survival:
+        r = dict(r, fitness=r["fitness"] * r["up"])
+    return r
+
+
 def controllers(family: Family | None, model, g, key=None, steer=None):
     """The controllers of genomes ``g`` [N, G] (:func:`cpgjax.episode.policy.from_genomes`), computed apart from the
     simulation (the barrier: the same weights in every program, cf. :func:`robust_problem`)."""
@@ -225,12 +239,7 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
             steer = steering.Schedule(c[0], c[1], switch, p.command)
         r = evaluate(model, controllers(family, model, g, nk, steer), time=T, delta=delta, chunk=chunk, var=var,
                      fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, **sensing)
-        if steer is not None:   # the score of following the command (steering.tracking_fitness), not eq. 4.6
-            r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command))
-        if p.fall_zero:   # a fall forfeits the episode
-            r = dict(r, fitness=jnp.where(r["down"], 0.0, r["fitness"]))
-        elif p.fall_survival:   # a fall scales the episode's score by the share of it the robot stayed up
-            r = dict(r, fitness=r["fitness"] * r["up"])
+        r = episode_scores(r, p, steered=steer is not None)
         out = {}
         for key in METRICS + (("turn_error",) if steer is not None else ()):
             v = r[key].reshape(n, R)

@@ -1,6 +1,7 @@
 """The robust evaluation's perturbations (cpgjax/episode/perturb.py): domain randomisation's draws and records."""
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 from simcases import rig
@@ -54,7 +55,8 @@ def test_the_run_records_every_range_drawn_and_the_controller_family():
 
 
 @pytest.mark.parametrize("bad, message", [({"latency": 2}, "latency is 0 or 1"), ({"relief": 1.5}, "relief"),
-                                          ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown")])
+                                          ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown"),
+                                          ({"speed": 0.12}, "give command too")])
 def test_bad_ranges_are_refused(bad, message):
     with pytest.raises(ValueError, match=message):
         Perturbations.from_settings(bad)
@@ -75,6 +77,22 @@ def test_a_steered_run_records_the_command_and_refuses_a_controller_that_cannot_
                      perturb={"command": 0.4})
     assert p.meta["perturbations"]["command"] == 0.4 and p.n_genes == 40 + 10 * 6
     assert "command" not in Perturbations().to_dict()                            # off: the earlier records
+    assert "speed" not in Perturbations(command=0.4).to_dict()
     for ctl in (None, "pmtg:tilt+bias"):
         with pytest.raises(ValueError, match="must read the command"):
             make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller=ctl, perturb={"command": 0.4})
+
+
+def test_a_steered_episode_is_scored_by_tracking_capped_at_the_speed_then_by_its_fall():
+    """The robust evaluation's score of three episodes (0.2 and 0.1 m/s along the heading, 0.05 rad/s off a 0.4 rad/s
+    range; the third fell): the tracking fitness, the speed credited up to ``speed``, a fall forfeiting."""
+    from cpgjax.optim.factory import episode_scores
+
+    r = {"fitness": jnp.asarray([9.0, 9.0, 9.0]), "heading_fitness": jnp.asarray([0.2, 0.1, 0.2]),
+         "turn_error": jnp.full(3, 0.05), "down": jnp.asarray([False, False, True]), "up": jnp.ones(3)}
+    share = 1 - 0.05 / 0.2
+    free = episode_scores(r, Perturbations(command=0.4, fall_zero=True), steered=True)["fitness"]
+    np.testing.assert_allclose(free, [0.2 * share, 0.1 * share, 0.0], rtol=1e-6)
+    capped = episode_scores(r, Perturbations(command=0.4, speed=0.15, fall_zero=True), steered=True)["fitness"]
+    np.testing.assert_allclose(capped, [0.15 * share, 0.1 * share, 0.0], rtol=1e-6)
+    np.testing.assert_array_equal(episode_scores(r, Perturbations())["fitness"], r["fitness"])   # eq. 4.6's, kept

@@ -115,6 +115,9 @@ def test_the_tracking_sums_of_a_hand_made_walk_give_its_speed_and_its_turn_error
     # the tracking fitness: the speed times 1 - error / (half the range)
     np.testing.assert_allclose(steering.tracking_fitness(hf, err, 0.4), 0.2 * (1 - 0.025 / 0.2), rtol=1e-5)
     assert float(steering.tracking_fitness(hf, jnp.asarray([0.25]), 0.4)[0]) == 0.0     # an error past half the range
+    # capped at 0.15 m/s the 0.2 m/s walk is credited 0.15; a cap above its speed leaves its score
+    np.testing.assert_allclose(steering.tracking_fitness(hf, err, 0.4, 0.15), 0.15 * (1 - 0.025 / 0.2), rtol=1e-5)
+    np.testing.assert_allclose(steering.tracking_fitness(hf, err, 0.4, 0.3), 0.2 * (1 - 0.025 / 0.2), rtol=1e-5)
     # a robot standing still turning on the spot scores 0 whatever it turns
     acc = _walk(0.0, (0.25, -0.1), T, n)
     hf, err = steering.track_finish(acc, T, T / 2, jnp.asarray([0.25]), jnp.asarray([-0.1]))
