@@ -269,7 +269,7 @@ def cmd_best(args: argparse.Namespace) -> int:
                             pipeline=run.pipeline)
         cl = from_genomes(family, model, np.asarray(genome, np.float32)[None])
         cl = jax.tree.map(lambda a: np.asarray(a)[0], cl)
-        policy, cpg_genes = PolicyTable(**table_fields(cl, model)), np.asarray(genome)[: n_dof * ncoef]
+        policy, cpg_genes = PolicyTable(**table_fields(cl, model)), np.asarray(cl.coeffs).reshape(-1)
     if args.ctl and not (harmonics >= 0 and n_dof * ncoef == cpg_genes.size):
         raise ValueError(f"{args.run}: the run does not record n_dof and harmonics: cannot write a .ctl")
     what = "champion" if args.validate else "best"

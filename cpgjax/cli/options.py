@@ -166,7 +166,7 @@ def perturbations(text: str) -> dict:
 
 
 def controller(text: str) -> str:
-    """A controller family (``cpg``, ``pmtg[:GROUP+GROUP...]``; cpgjax.episode.policy), checked now."""
+    """A controller family (``cpg``, ``pmtg[:GROUP+GROUP...][:mirror]``; cpgjax.episode.policy), checked now."""
     from cpgjax.episode.policy import parse_controller
 
     try:
@@ -177,15 +177,16 @@ def controller(text: str) -> str:
 
 
 def controller_option(p: argparse.ArgumentParser) -> None:
-    """``--controller cpg|pmtg[:GROUP+...]``: the controller family evolved (``None`` when left out: the CPG)."""
+    """``--controller cpg|pmtg[:GROUP+...][:mirror]``: the controller family evolved (``None`` when left out: the
+    CPG)."""
     from cpgjax.episode.policy import CONTROLLER_SYNTAX
     from cpgjax.episode.sensors import GROUPS
 
     p.add_argument("--controller", type=controller, default=None, metavar="FAMILY",
                    help=f"{CONTROLLER_SYNTAX}: cpg, the thesis's open-loop CPG (default); pmtg, the CPG modulated by "
                         f"a linear feedback policy reading the sensors (groups {', '.join(GROUPS)}: all but steer by "
-                        "default) "
-                        "-- docs/evolution.md")
+                        "default); :mirror after the groups, a mirror-symmetric genome (the right half evolved, the "
+                        "left derived) -- docs/evolution.md")
 
 
 TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"

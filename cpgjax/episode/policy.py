@@ -44,7 +44,7 @@ OUTPUTS = ("offsets", "frequency", "amplitude")
 OUTPUT_SCALES = {"offsets": 0.5, "frequency": 1.0, "amplitude": 0.5}
 #: Each output is clipped to this range: offsets (rad), frequency (f0 from 0.1 to 3 times), amplitude (0 to 2 times).
 LIMITS = {"offsets": (-0.8, 0.8), "frequency": (-0.9, 2.0), "amplitude": (-1.0, 1.0)}
-CONTROLLER_SYNTAX = "cpg | pmtg[:GROUP+GROUP...]"
+CONTROLLER_SYNTAX = "cpg | pmtg[:GROUP+GROUP...][:mirror]"
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,7 @@ class Family:
     name: str = "pmtg"
     inputs: tuple[str, ...] = sensors.DEFAULT_GROUPS
     outputs: tuple[str, ...] = OUTPUTS
+    mirror: bool = False     # the genome mirror-symmetric (:mod:`cpgjax.episode.mirror`), not the controller
 
     def __post_init__(self) -> None:
         if self.name != "pmtg":
@@ -68,8 +69,10 @@ class Family:
 
     @property
     def spec(self) -> str:
-        """The command-line text (``pmtg``, or ``pmtg:tilt+contact+bias`` when not the default groups)."""
-        return self.name if self.inputs == sensors.DEFAULT_GROUPS else f"{self.name}:{'+'.join(self.inputs)}"
+        """The command-line text (``pmtg``, or ``pmtg:tilt+contact+bias`` when not the default groups; ``:mirror``
+        after it for a mirror-symmetric genome)."""
+        text = self.name if self.inputs == sensors.DEFAULT_GROUPS else f"{self.name}:{'+'.join(self.inputs)}"
+        return text + (f"{'' if ':' in text else ':' + '+'.join(self.inputs)}:mirror" if self.mirror else "")
 
     def input_sizes(self, model) -> list[tuple[str, int]]:
         n = sensors.sizes(model)
@@ -88,11 +91,21 @@ class Family:
         return self.n_in(model) * self.n_out(model)
 
     def n_genes(self, model) -> int:
-        """The genome's length: the CPG's coefficients and the policy's genes."""
+        """The genome's length: the CPG's coefficients and the policy's genes (with ``mirror``, the free ones)."""
+        if self.mirror:
+            from cpgjax.episode.mirror import mirror
+
+            return mirror(model, self).n_genes
         return model.n_genes + self.n_weights(model)
 
+    @property
+    def plain(self) -> Family:
+        """The same family without ``mirror``: the controller a genome of this family is."""
+        return Family(self.name, self.inputs, self.outputs)
+
     def to_dict(self) -> dict:
-        return {"name": self.name, "inputs": list(self.inputs), "outputs": list(self.outputs)}
+        return {"name": self.name, "inputs": list(self.inputs), "outputs": list(self.outputs)} | (
+            {"mirror": True} if self.mirror else {})
 
 
 def parse_controller(text: str | None) -> Family | None:
@@ -107,8 +120,11 @@ def parse_controller(text: str | None) -> Family | None:
         raise ValueError(f"unknown controller {text!r}; expected {CONTROLLER_SYNTAX}")
     if name == "cpg":
         raise ValueError(f"controller {text!r}: the open-loop CPG takes no inputs; expected {CONTROLLER_SYNTAX}")
+    rest, _, option = rest.partition(":")
+    if option.strip().lower() not in ("", "mirror") or (not rest.strip() and option):
+        raise ValueError(f"controller {text!r}: expected {CONTROLLER_SYNTAX}")
     groups = tuple(g.strip().lower() for g in rest.split("+")) if rest else sensors.DEFAULT_GROUPS
-    return Family(name, groups)
+    return Family(name, groups, mirror=option.strip().lower() == "mirror")
 
 
 def family_from_meta(meta: dict) -> Family | None:
@@ -178,31 +194,53 @@ def from_genomes(family: Family | None, model, genomes, command=None, key=None, 
     xp = jnp if isinstance(genomes, jax.Array) else np
     g = genomes
     n = g.shape[0]
-    coeffs = g[:, : model.n_genes].reshape(n, model.n_ctrl, model.n_coeff)
     if family is None:
         if g.shape[1] != model.n_genes:
             raise ValueError(f"a CPG genome has {model.n_genes} genes, got {g.shape[1]}")
-        return coeffs
+        return g.reshape(n, model.n_ctrl, model.n_coeff)
     if g.shape[1] != family.n_genes(model):
-        raise ValueError(f"a {family.spec} genome of this model has {family.n_genes(model)} genes "
-                         f"({model.n_genes} of the CPG, {family.n_weights(model)} of the policy), got {g.shape[1]}")
+        what = "free genes of a mirror-symmetric one" if family.mirror else \
+            f"{model.n_genes} of the CPG, {family.n_weights(model)} of the policy"
+        raise ValueError(f"a {family.spec} genome of this model has {family.n_genes(model)} genes ({what}), "
+                         f"got {g.shape[1]}")
+    if family.mirror:
+        from cpgjax.episode.mirror import expand, mirror
+
+        g, family = expand(mirror(model, family), g), family.plain
+    coeffs = g[:, : model.n_genes].reshape(n, model.n_ctrl, model.n_coeff)
     w = g[:, model.n_genes:].reshape(n, family.n_out(model), family.n_in(model)) * weight_scale(family, model)[None]
     if command is None:
         command = xp.zeros((n,), g.dtype)
     return ClosedLoop(family, coeffs, w, command, key, steer)
 
 
-def to_genome(controller: ClosedLoop, model) -> np.ndarray:
-    """[G] the genome of one closed-loop controller (its weights divided by their scale)."""
-    w = np.asarray(controller.weights, np.float32) / weight_scale(controller.family, model)
-    return np.concatenate([np.asarray(controller.coeffs, np.float32).reshape(-1), w.reshape(-1)])
+def to_genome(controller: ClosedLoop, model, family: Family | None = None) -> np.ndarray:
+    """[G] the genome of one closed-loop controller (its weights divided by their scale) in ``family``'s layout
+    (default the controller's; a ``mirror`` family's when the controller is mirror-symmetric, else
+    :class:`~cpgjax.episode.mirror.MirrorError`)."""
+    w = np.asarray(controller.weights, np.float32) / weight_scale(controller.family.plain, model)
+    full = np.concatenate([np.asarray(controller.coeffs, np.float32).reshape(-1), w.reshape(-1)])
+    return _in_layout(full, family or controller.family, model, "the controller")
 
 
-def base_genome(family: Family | None, model, cpg_genome: np.ndarray) -> np.ndarray:
-    """The closed-loop start: the CPG's start genome and a policy of zeros (it does what the CPG does)."""
+def base_genome(family: Family | None, model, cpg_genome: np.ndarray, symmetrize: bool = False) -> np.ndarray:
+    """The closed-loop start: the CPG's start genome and a policy of zeros (it does what the CPG does).  For a
+    ``mirror`` family the CPG must be mirror-symmetric (:class:`~cpgjax.episode.mirror.MirrorError`), or with
+    ``symmetrize`` its right side is kept and the left side made its mirror image."""
     if family is None:
         return cpg_genome
-    return np.concatenate([np.asarray(cpg_genome, float), np.zeros(family.n_weights(model))])
+    full = np.concatenate([np.asarray(cpg_genome, float), np.zeros(family.plain.n_weights(model))])
+    return _in_layout(full, family, model, "the starting CPG", symmetrize)
+
+
+def _in_layout(full: np.ndarray, family: Family, model, what: str, symmetrize: bool = False) -> np.ndarray:
+    """A full closed-loop genome as ``family``'s (reduced for a ``mirror`` family)."""
+    if not family.mirror:
+        return full
+    from cpgjax.episode.mirror import mirror, reduce
+
+    mir = mirror(model, family)
+    return (full[mir.rep] if symmetrize else reduce(mir, full, what)).astype(full.dtype)
 
 
 def phase_basis(t, d, harmonics: int, f0: float):

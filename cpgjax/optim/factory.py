@@ -19,6 +19,7 @@ from cpgjax.episode import steering
 from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
+from cpgjax.episode.mirror import MirrorError
 from cpgjax.episode.perturb import Perturbations, commands, draw, noise_key, roughened
 from cpgjax.episode.policy import Family, from_control, from_genomes, from_table, parse_controller, to_genome
 from cpgjax.episode.policy import base_genome as policy_base
@@ -91,16 +92,17 @@ def start_genome(path: str, problem: Problem) -> np.ndarray:
         raise ValueError(f"--start {path}: a starting controller needs a simulated model (.wl)")
     c = read_ctl(path, n_dof=int(n_dof), harmonics=int(harmonics))
     g = np.asarray(c.coeffs, np.float32).reshape(-1)
-    if problem.n_genes > g.size:        # a closed-loop problem: the controller's policy, else a policy of zeros
+    family = parse_controller(problem.meta.get("controller"))
+    if family is not None:        # a closed-loop problem: the controller's policy, else a policy of zeros
         model = load_model(problem.meta["model_path"], pipeline=problem.meta.get("pipeline"))
-        family = parse_controller(problem.meta.get("controller"))
-        if c.policy is not None:
-            g = to_genome(from_control(c, model), model)
-            if g.size != problem.n_genes or from_table(c.policy, model, c.path) != family:
-                raise ValueError(f"--start {path}: its policy ({c.policy.name}) is not this run's "
-                                 f"--controller {family.spec}")
-        else:
-            g = np.concatenate([g, np.zeros(problem.n_genes - g.size, np.float32)])
+        if c.policy is not None and from_table(c.policy, model, c.path) != family.plain:
+            raise ValueError(f"--start {path}: its policy ({c.policy.name}) is not this run's "
+                             f"--controller {family.spec}")
+        try:
+            g = to_genome(from_control(c, model), model, family) if c.policy is not None else \
+                policy_base(family, model, g).astype(np.float32)
+        except MirrorError as e:
+            raise ValueError(f"--start {path}: {e}") from None
     elif c.policy is not None:
         raise ValueError(f"--start {path}: a closed-loop controller; add --controller {c.policy.name}")
     return np.clip(g, problem.lower, problem.upper)
@@ -163,7 +165,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
         "evaluation": "thesis", "replicas": R, "jitter": float(jitter),
     } | controller_meta(family)
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
-    return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base),
+    return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base, symmetrize=True),
                    evaluate=evaluate_genomes, meta=meta)
 
 
@@ -253,5 +255,5 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
             "harmonics": model.harmonics, "frequency": model.frequency, "evaluation": "robust",
             "replicas": R, "perturbations": p.to_dict()} | controller_meta(family)
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
-    return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base),
+    return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base, symmetrize=True),
                    evaluate=evaluate_genomes, meta=meta, stochastic=True)

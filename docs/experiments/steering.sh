@@ -11,6 +11,7 @@
 #   REPLICAS=8 sh docs/experiments/steering.sh runs/steering-r8 "303 304 305"   # 8 episodes per controller
 #   COMMAND=0.5 sh docs/experiments/steering.sh runs/steering-c05 "306 307 308"  # commands U(-0.5, 0.5) in evolution
 #   SPEED=0.12 sh docs/experiments/steering.sh runs/steering-v012 "312 313 314"  # speed credited up to 0.12 m/s
+#   MIRROR=1 sh docs/experiments/steering.sh runs/steering-mirror "315 316 317"  # a mirror-symmetric genome
 set -e
 OUT=${1:-runs/steering}
 SEEDS=${2:-300 301 302}
@@ -21,7 +22,7 @@ for S in $SEEDS; do
     [ -f "$OUT/s$S.ctl" ] || {
         /usr/bin/time -f "s$S: %e s wall, %U s user" $CPGJAX evolve models/quadruped.wl \
             --start models/quadruped-trot.ctl --pipeline exact \
-            --controller pmtg:tilt+contact+command+steer+bias --evaluation robust \
+            --controller pmtg:tilt+contact+command+steer+bias${MIRROR:+:mirror} --evaluation robust \
             --perturb command=${COMMAND:-0.3},fall_zero=on${REPLICAS:+,replicas=$REPLICAS}${SPEED:+,speed=$SPEED} --delta 1 --population 40 --generations 150 --time 10 \
             --pocket 4 --gamma 0.01 --chunk 10 --seed "$S" --out "$OUT/s$S.h5" --overwrite --quiet
         $CPGJAX best "$OUT/s$S.h5" --ctl "$OUT/s$S.ctl"
