@@ -70,9 +70,9 @@ class Family:
     @property
     def spec(self) -> str:
         """The command-line text (``pmtg``, or ``pmtg:tilt+contact+bias`` when not the default groups; ``:mirror``
-        after it for a mirror-symmetric genome)."""
+        after it for a mirror-symmetric genome, ``pmtg:mirror`` with the default groups)."""
         text = self.name if self.inputs == sensors.DEFAULT_GROUPS else f"{self.name}:{'+'.join(self.inputs)}"
-        return text + (f"{'' if ':' in text else ':' + '+'.join(self.inputs)}:mirror" if self.mirror else "")
+        return text + (":mirror" if self.mirror else "")
 
     def input_sizes(self, model) -> list[tuple[str, int]]:
         n = sensors.sizes(model)
@@ -121,7 +121,9 @@ def parse_controller(text: str | None) -> Family | None:
     if name == "cpg":
         raise ValueError(f"controller {text!r}: the open-loop CPG takes no inputs; expected {CONTROLLER_SYNTAX}")
     rest, _, option = rest.partition(":")
-    if option.strip().lower() not in ("", "mirror") or (not rest.strip() and option):
+    if not option and rest.strip().lower() == "mirror":          # pmtg:mirror: the default groups, mirrored
+        rest, option = "", "mirror"
+    if option.strip().lower() not in ("", "mirror") or (not rest.strip() and option and option != "mirror"):
         raise ValueError(f"controller {text!r}: expected {CONTROLLER_SYNTAX}")
     groups = tuple(g.strip().lower() for g in rest.split("+")) if rest else sensors.DEFAULT_GROUPS
     return Family(name, groups, mirror=option.strip().lower() == "mirror")

@@ -37,7 +37,8 @@ def test_a_model_that_is_not_its_own_mirror_image_is_refused():
 
 
 def test_the_spec_names_the_option_and_reads_back():
-    for text in (STEER, EVERY, "pmtg:tilt+bias"):
+    assert parse_controller("pmtg:mirror").mirror and parse_controller("pmtg:mirror").spec == "pmtg:mirror"
+    for text in (STEER, EVERY, "pmtg:tilt+bias", "pmtg:mirror"):
         f = parse_controller(text)
         assert parse_controller(f.spec) == f and f.mirror == text.endswith(":mirror")
     assert parse_controller(STEER).plain == parse_controller(STEER.rsplit(":", 1)[0])
