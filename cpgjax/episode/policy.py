@@ -123,7 +123,7 @@ def parse_controller(text: str | None) -> Family | None:
     rest, _, option = rest.partition(":")
     if not option and rest.strip().lower() == "mirror":          # pmtg:mirror: the default groups, mirrored
         rest, option = "", "mirror"
-    if option.strip().lower() not in ("", "mirror") or (not rest.strip() and option and option != "mirror"):
+    if option.strip().lower() not in ("", "mirror"):
         raise ValueError(f"controller {text!r}: expected {CONTROLLER_SYNTAX}")
     groups = tuple(g.strip().lower() for g in rest.split("+")) if rest else sensors.DEFAULT_GROUPS
     return Family(name, groups, mirror=option.strip().lower() == "mirror")
@@ -199,7 +199,7 @@ def from_genomes(family: Family | None, model, genomes, command=None, key=None, 
     if family is None:
         if g.shape[1] != model.n_genes:
             raise ValueError(f"a CPG genome has {model.n_genes} genes, got {g.shape[1]}")
-        return g.reshape(n, model.n_ctrl, model.n_coeff)
+        return g[:, : model.n_genes].reshape(n, model.n_ctrl, model.n_coeff)
     if g.shape[1] != family.n_genes(model):
         what = "free genes of a mirror-symmetric one" if family.mirror else \
             f"{model.n_genes} of the CPG, {family.n_weights(model)} of the policy"
