@@ -35,6 +35,9 @@ FAMILIES = {
     # the open loop evolved under ten times the gene jitter (sd 0.01 rad), alone and with 8 episodes
     "openj10": ["--perturb", "preset=domain,jitter=0.01"],
     "openj10x8": ["--perturb", "preset=domain,jitter=0.01,replicas=8"],
+    # the closed loop with a mirror-symmetric genome (the right legs evolved, the left derived)
+    "closedmirror": ["--perturb", "preset=domain,latency=1,noise=0.02",
+                     "--controller", "pmtg:tilt+contact+bias:mirror"],
 }
 TERRAINS = ["flat", "rough:0.01", "rough:0.02", "rough:0.04"]
 CPGJAX = os.path.join(os.path.dirname(sys.executable), "cpgjax")
@@ -162,8 +165,8 @@ def plot(out: str, path: str) -> None:
 
     rows = collect(out)
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    colors = {"open": "tab:blue", "closed": "tab:red", "open8ep": "tab:green", "open30gen": "tab:purple", "openj10": "tab:orange",
-              "openj10x8": "tab:brown"}
+    colors = {"open": "tab:blue", "closed": "tab:red", "open8ep": "tab:green", "open30gen": "tab:purple",
+              "openj10": "tab:orange", "openj10x8": "tab:brown", "closedmirror": "tab:pink"}
     for f in FAMILIES:
         for engine, style in (("ours", "-"), ("mujoco", "--")):
             by_seed: dict = {}
