@@ -61,10 +61,19 @@ def _plane(model) -> float:
     return float(model.x0[0, model.track])
 
 
-def _mirrored(p, x_c):
-    q = np.asarray(p, float).copy()
-    q[0] = 2.0 * x_c - q[0]
-    return q
+def _partners(points: list, x_c: float, what: list[str]) -> np.ndarray:
+    """For each point [3] the index of the point at its mirror image across ``x = x_c`` (:class:`MirrorError`
+    naming ``what[i]`` when there is none)."""
+    P = np.asarray(points, float)
+    image = P * np.array([-1.0, 1.0, 1.0]) + np.array([2.0 * x_c, 0.0, 0.0])
+    out = np.full(len(P), -1)
+    for i, q in enumerate(image):
+        hits = np.flatnonzero(np.linalg.norm(P - q, axis=1) < TOL)
+        if not len(hits):
+            raise MirrorError(f"{what[i]} has no mirror partner across x = {x_c:g}: the model is not left-right "
+                              "symmetric")
+        out[i] = hits[0]
+    return out
 
 
 def joint_pairs(model) -> tuple[np.ndarray, np.ndarray]:
@@ -83,23 +92,18 @@ def joint_pairs(model) -> tuple[np.ndarray, np.ndarray]:
         R = quat_to_mat_np(model.q0[:, ia])
         piv.append(model.x0[:, ia] + R @ (np.asarray(desc.joints[j].pivot_a, float) - model.cm_local[:, ia]))
         axes.append(R @ model.j_axis[:, j])
-    n = len(piv)
-    partner, sigma = np.full(n, -1), np.zeros(n)
-    for i in range(n):
-        hits = [k for k in range(n) if np.linalg.norm(_mirrored(piv[i], x_c) - piv[k]) < TOL]
-        name = model.joint_names[int(model.ctrl_joint[i])]
-        if not hits:
-            raise MirrorError(f"joint {name!r} has no mirror partner across x = {x_c:g}: the model is not "
-                              "left-right symmetric")
-        k = hits[0]
+    names = [model.joint_names[int(j)] for j in model.ctrl_joint]
+    partner = _partners(piv, x_c, [f"joint {n!r}" for n in names])
+    sigma = np.zeros(len(piv))
+    for i, k in enumerate(partner):
+        name = names[i]
         if k == i:
             raise MirrorError(f"joint {name!r} lies on the mirror plane x = {x_c:g}; a mirror genome pairs every "
                               "controlled joint with another")
         s = float(axes[k] @ (-M @ axes[i]))
         if abs(abs(s) - 1.0) > TOL:
-            raise MirrorError(f"joints {name!r} and {model.joint_names[int(model.ctrl_joint[k])]!r}: the axes are "
-                              "not mirror images of each other")
-        partner[i], sigma[i] = k, np.sign(s)
+            raise MirrorError(f"joints {name!r} and {names[k]!r}: the axes are not mirror images of each other")
+        sigma[i] = np.sign(s)
     return partner, sigma
 
 
@@ -116,14 +120,7 @@ def leg_pairs(model) -> np.ndarray:
         b = model.pt_body[pts]
         R = quat_to_mat_np(model.q0[:, b])
         where.append((model.x0[:, b] + np.einsum("ij...,j...->i...", R, model.pt_local[:, pts])).mean(1))
-    out = np.full(len(where), -1)
-    for k, p in enumerate(where):
-        hits = [i for i, q in enumerate(where) if np.linalg.norm(_mirrored(p, x_c) - q) < TOL]
-        if not hits:
-            raise MirrorError(f"leg {k} has no mirror partner across x = {x_c:g}: the model is not left-right "
-                              "symmetric")
-        out[k] = hits[0]
-    return out
+    return _partners(where, x_c, [f"leg {k}" for k in range(len(where))])
 
 
 def input_map(model, family) -> tuple[np.ndarray, np.ndarray]:

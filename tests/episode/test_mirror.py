@@ -63,7 +63,9 @@ def test_the_trot_is_its_own_mirror_image_and_starts_a_mirror_genome(quad):
 def test_a_mirrored_state_half_a_period_on_gets_the_mirrored_action(quad):
     """For random genes and readings: the policy's action on the mirrored observation is the mirrored action (each
     joint's offset is its partner's, frequency and amplitude unchanged), and the CPG's target of a joint's partner
-    half a period later is the joint's own now."""
+    half a period later is the joint's own now.  Float32, the sums in another order: measured 6e-8 (offsets, of
+    actions up to 0.38), 1.5e-8 (amplitude) and 4.8e-7 (the CPG, a sine of a larger argument), the same natively
+    (AVX-512), under AVX2 and under SSE4_2; tolerances 1e-6 and 1e-5."""
     f = parse_controller(EVERY)
     rng = np.random.default_rng(0)
     g = rng.uniform(-0.8, 0.8, (1, f.n_genes(quad))).astype(np.float32)
