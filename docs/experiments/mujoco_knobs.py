@@ -10,6 +10,10 @@ per run and setting: falls of the 32 and the unjittered replay's speed (m/s).  R
     .venv/bin/python docs/experiments/mujoco_knobs.py RUN.h5 [RUN.h5 ...]
     .venv/bin/python docs/experiments/mujoco_knobs.py --convergence RUN.h5 [...]   # the step and integrator alone
     .venv/bin/python docs/experiments/mujoco_knobs.py --contact RUN.h5 [...]       # the ground's stiffness at 0.5 ms
+    .venv/bin/python docs/experiments/mujoco_knobs.py --steps --terrain rough:0.02:0.1:1 RUN.h5 [...]
+                                              # the step alone, 2 ms to 0.125 ms, on another terrain than the run's
+
+``--terrain T`` replays on T (``--terrain`` syntax, the same field in both engines) instead of the run's terrain.
 """
 
 import os
@@ -58,6 +62,17 @@ def convergence(mujoco):
             "RK4 2 ms": step(2e-3, rk4), "RK4 1 ms": step(1e-3, rk4), "RK4 0.5 ms": step(5e-4, rk4)}
 
 
+def steps(mujoco):
+    """The step alone (implicitfast, the export's integrator): 2, 1, 0.5, 0.25 and 0.125 ms."""
+    def step(dt):
+        def f(mj):
+            mj.opt.timestep = dt
+        return f
+
+    return {"2 ms": None, "1 ms": step(1e-3), "0.5 ms": step(5e-4), "0.25 ms": step(2.5e-4),
+            "0.125 ms": step(1.25e-4)}
+
+
 def contact(mujoco):
     """The ground's stiffness and damping in MuJoCo at a fine step (0.5 ms): the export's `solref` (eq. 3.7's A and B
     per unit of the mass a resting foot carries), 4x stiffer and 2x more damped (the same damping ratio), a quarter
@@ -78,7 +93,12 @@ def contact(mujoco):
 def main(paths: list[str]) -> None:
     import mujoco
 
-    groups = {"--convergence": convergence, "--contact": contact}
+    groups = {"--convergence": convergence, "--contact": contact, "--steps": steps}
+    terrain = None
+    if "--terrain" in paths:
+        i = paths.index("--terrain")
+        terrain = paths[i + 1]
+        paths = paths[:i] + paths[i + 2:]
     S = groups.get(paths[0], settings)(mujoco)
     paths = [p for p in paths if p not in groups]
     print("| run | " + " | ".join(S) + " |")
@@ -87,8 +107,8 @@ def main(paths: list[str]) -> None:
         run = read_run(path)
         _, _, _, genome = run.best()
         _, time, evolved_on = run_setting(run)
-        model = _model(str(run.meta["model_text"]), str(run.meta.get("model_path", path)), evolved_on, None, None,
-                       run.pipeline)
+        model = _model(str(run.meta["model_text"]), str(run.meta.get("model_path", path)), terrain or evolved_on,
+                       None, None, run.pipeline)
         C = from_genomes(family_from_meta(run.meta), model, jittered(genome, REPLAYS))   # cpgjax transfer's jitter
         cells = []
         for change in S.values():

@@ -59,3 +59,29 @@ def test_replicas_average_jittered_episodes():
     f1 = simulate(m, genome_to_coeffs(p3.base_genome, m.n_ctrl, m.harmonics), time=TINY_TIME)["fitness"]
     assert f3.shape == (6,) and np.isfinite(f3).all()
     assert f3[0] == f3[1] and f3[0] != f1 and abs(f3[0] - f1) < 0.05
+
+
+@pytest.mark.slow   # 40 s of CPU, as the test above: a mirror run's GA and its replay compile
+def test_a_mirror_best_replays_with_the_fitness_the_ga_gave_it(tmp_path, capsys):
+    """A mirror-symmetric run (`--controller pmtg:mirror`: the right legs evolved, the left derived) through the CLI:
+    its `.ctl` is the expanded plain controller, and replaying it gives the GA's fitness."""
+    from cpgjax.episode.policy import family_from_meta, from_genomes
+    from cpgjax.io.wl import load_model
+
+    run = tmp_path / "r.h5"
+    ctl = tmp_path / "best.ctl"
+    assert main(["evolve", "models/quadruped.wl", "--controller", "pmtg:mirror", "--population", "6",
+                 "--generations", "2", "--time", "1", "--out", str(run), "--quiet"]) == 0
+    assert main(["best", str(run), "--ctl", str(ctl)]) == 0
+    assert "policy pmtg:mirror: 10 outputs x 20 inputs" in capsys.readouterr().out
+    r = read_run(str(run))
+    _, _, fit, genome = r.best()
+    assert len(genome) == 118                      # 240 genes of the plain family, halved but the shared rows
+    expanded = from_genomes(family_from_meta(r.meta), load_model("models/quadruped.wl"), np.asarray(genome)[None])
+    c = read_ctl(ctl, n_dof=8, harmonics=2)
+    np.testing.assert_array_equal(c.coeffs.astype(np.float32), np.asarray(expanded.coeffs, np.float32)[0])
+    np.testing.assert_array_equal(c.policy.weights.astype(np.float32), np.asarray(expanded.weights, np.float32)[0])
+    assert main(["simulate", "models/quadruped.wl", "--ctl", str(ctl), "--time", "1"]) == 0
+    out = capsys.readouterr().out
+    replay = float(re.search(r"fitness\s+([-+0-9.e]+)", out).group(1))
+    assert abs(replay - fit) < 1e-5, (replay, fit)
