@@ -65,7 +65,8 @@ def register(subparsers: Any) -> None:
                         "the one it was evolved on (default); e.g. rough:0.02 or rough:0.02:0.1:SEED")
     t.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="MuJoCo's integration step (default: the export's, 2 ms; at 2 ms MuJoCo's verdict on a "
-                        "marginal gait depends on the step: docs/results/closed-loop.md)")
+                        "marginal gait depends on the step, and on rough ground a fast gait that walks at 0.25 ms "
+                        "falls at 2 ms: use 0.00025 there; docs/results/closed-loop.md)")
     t.add_argument("--restate", action="store_true",
                    help="the arguments are transfer tables (transfer.md, as --out writes them): judge each run again "
                         "by today's rule from the figures in the table, without replaying anything")

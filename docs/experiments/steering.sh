@@ -12,6 +12,8 @@
 #   COMMAND=0.5 sh docs/experiments/steering.sh runs/steering-c05 "306 307 308"  # commands U(-0.5, 0.5) in evolution
 #   SPEED=0.12 sh docs/experiments/steering.sh runs/steering-v012 "312 313 314"  # speed credited up to 0.12 m/s
 #   MIRROR=1 sh docs/experiments/steering.sh runs/steering-mirror "315 316 317"  # a mirror-symmetric genome
+#   MIRROR=1 SPEED=0.12 COMMAND=0.4 LIMIT=0.4 sh docs/experiments/steering.sh runs/steering-c04-l04 "336 337 338"
+#                                                   # the follower's limit (default 0.3) at the evolved command range
 set -e
 OUT=${1:-runs/steering}
 SEEDS=${2:-300 301 302}
@@ -30,5 +32,5 @@ for S in $SEEDS; do
     CTLS="$CTLS --ctl $OUT/s$S.ctl"
 done
 # shellcheck disable=SC2086
-$CPGJAX follow models/quadruped.wl $CTLS --pipeline exact --limit 0.3 --time 120 \
+$CPGJAX follow models/quadruped.wl $CTLS --pipeline exact --limit ${LIMIT:-0.3} --time 120 \
     --path line:3 --path circle:0.5 --path square:1.0 --path figure8:0.5 --out "$OUT/walks.json"
