@@ -38,6 +38,9 @@ def register(subparsers: Any) -> None:
     _variant_options(c)
     o.pipeline_option(c, "the model file's Pipeline, else springs; our simulator's side only, MuJoCo's model does "
                          "not depend on it")
+    c.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
+                   help="MuJoCo C's integration step (default: the export's, 2 ms; on rough ground use 0.00025, "
+                        "where fast gaits' verdicts settle: docs/crosscheck.md); the ceiling runs it at half that")
     c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
     c.set_defaults(func=cmd_crosscheck)
 
@@ -126,7 +129,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
         coeffs, labels = coeffs[: args.n], labels[: args.n]
     T = args.time or model.time_max
     rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, ceiling=not args.no_ceiling,
-                                   show=args.show, out_dir=args.out)
+                                   show=args.show, out_dir=args.out, mujoco_dt=args.mujoco_dt)
     engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
     print(table(rows, summary, engines))
     if args.out:

@@ -66,8 +66,11 @@ def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_pertu
 
 
 def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mjx: bool = True,
-                   ceiling: bool = True, show: int = 0, out_dir: str | None = None):
+                   ceiling: bool = True, show: int = 0, out_dir: str | None = None, mujoco_dt: float | None = None):
     """Run every engine; returns (rows, summary) and writes table + plots into out_dir.
+
+    ``mujoco_dt``: MuJoCo C's step (None: the export's, ``mjcf.MJ_TIMESTEP``; on rough ground 0.25 ms, where a
+    fast gait's verdict there settles: docs/crosscheck.md).  MJX keeps the export's.
 
     With ``ceiling``, MuJoCo C also runs every controller at half its step: the rank correlation
     of MuJoCo with itself (``rho_mujoco_half``) is what discretisation alone costs on this set of
@@ -81,7 +84,8 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
     res = {}
     pen = simulate(model, coeffs, time=time, delta=delta, record=True)
     res["penalty"] = pen
-    mj_met, mj_q, _ = mujoco_run(model, coeffs, time=time, delta=delta)
+    mj_dt = MJ_TIMESTEP if mujoco_dt is None else float(mujoco_dt)
+    mj_met, mj_q, _ = mujoco_run(model, coeffs, time=time, delta=delta, timestep=mj_dt)
     res["mujoco"] = mj_met
     if mjx and is_closed(coeffs):
         raise ValueError("MJX replays open-loop controllers only: add --no-mjx for closed-loop ones")
@@ -98,7 +102,8 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
             row[f"{e}_fallen"] = bool(np.asarray(res[e]["fallen"])[i])
         rows.append(row)
     summary = {"n": len(labels), "time": time, "penalty_dt": model.dt, "penalty_alpha": model.alpha,
-               "penalty_beta": model.beta, "penalty_pipeline": model.pipeline, "terrain": model.terrain.spec}
+               "penalty_beta": model.beta, "penalty_pipeline": model.pipeline, "terrain": model.terrain.spec,
+               "mujoco_dt": mj_dt}
     for e in engines:
         summary[f"falls_{e}"] = int(np.sum(np.asarray(res[e]["fallen"], bool)))
     for a, b in (("penalty", "mujoco"), ("penalty", "mjx"), ("mujoco", "mjx")):
@@ -108,7 +113,7 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
             summary[f"rho_dist_{a}_{b}"] = spearman(res[a]["distance"], res[b]["distance"])
             summary[f"ratio_{a}_{b}"] = distance_ratio(res[a], res[b])
     if ceiling:
-        half = mujoco_run(model, coeffs, time=time, delta=delta, timestep=MJ_TIMESTEP / 2)[0]
+        half = mujoco_run(model, coeffs, time=time, delta=delta, timestep=mj_dt / 2)[0]
         summary["rho_mujoco_half"] = spearman(res["mujoco"]["fitness"], half["fitness"])
         summary["ci_mujoco_half"] = spearman_interval(res["mujoco"]["fitness"], half["fitness"])
         summary["rho_dist_mujoco_half"] = spearman(res["mujoco"]["distance"], half["distance"])
@@ -122,7 +127,7 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
             f.write(table(rows, summary, engines) + "\n")
         with open(os.path.join(out_dir, "crosscheck.json"), "w") as f:
             json.dump({"summary": summary, "controllers": rows}, f, indent=1, default=float)
-        _plots(model, pen, mj_q, show, labels[show], out_dir, mj_dt=None, time=time)
+        _plots(model, pen, mj_q, show, labels[show], out_dir, mj_dt=mj_dt, time=time)
     return rows, summary
 
 
@@ -159,6 +164,8 @@ def table(rows, summary, engines) -> str:
         lines.append(f"Our simulator: step {summary['penalty_dt'] * 1e3:g} ms, pivot springs "
                      f"{summary['penalty_alpha']:g} N/m, {summary['penalty_beta']:g} N s/m (eq. 3.6), "
                      "springs pipeline.")
+    if summary.get("mujoco_dt", MJ_TIMESTEP) != MJ_TIMESTEP:
+        lines.append(f"MuJoCo C's step {summary['mujoco_dt'] * 1e3:g} ms (the export's {MJ_TIMESTEP * 1e3:g} ms).")
     if summary.get("terrain", "flat") != "flat":
         lines.append(f"Terrain {summary['terrain']}; MuJoCo's heightfield samples the same surface "
                      "(crosscheck/mjcf.py: hfield_grid).")
@@ -172,7 +179,7 @@ def table(rows, summary, engines) -> str:
             lo, hi = summary.get("ci_" + a + "_" + b, (float("nan"), float("nan")))
             val = f"{v:+.3f} [{lo:+.2f}, {hi:+.2f}]"
             if b == "half":
-                step = MJ_TIMESTEP if a == "mujoco" else summary["penalty_dt"]
+                step = summary.get("mujoco_dt", MJ_TIMESTEP) if a == "mujoco" else summary["penalty_dt"]
                 lines.append(f"- fitness {a} vs {a} at half its step ({step / 2 * 1e3:g} ms): {val}  "
                              f"(distance: {dist:+.3f}); {a}'s ceiling: what discretisation alone costs")
             else:
@@ -194,7 +201,7 @@ def _plots(model, pen, mj_q, i, label, out_dir, mj_dt, time):
 
     from cpgjax.crosscheck.mjcf import load
 
-    mj = load(model)
+    mj = load(model) if mj_dt is None else load(model, timestep=mj_dt)     # MuJoCo's samples are its steps
     tr = pen["traj"]
     t_pen = tr["t"]
     t_mj = np.arange(mj_q.shape[1]) * mj.opt.timestep

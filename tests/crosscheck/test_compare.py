@@ -32,6 +32,20 @@ def test_crosscheck_reports_every_engine_and_writes_plots(tmp_path, capsys):
         assert os.path.getsize(tmp_path / f) > 0
 
 
+def test_crosscheck_runs_mujoco_at_the_step_it_is_given(tmp_path, capsys):
+    """`--mujoco-dt`: MuJoCo C's side at another step than the export's (rough ground is judged at 0.25 ms), named
+    in the table and recorded in the JSON."""
+    import json
+
+    rc = main(["crosscheck", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--random", "2",
+               "--perturbed", "1", "--time", str(TINY_TIME), "--no-mjx", "--no-ceiling", "--mujoco-dt", "0.001",
+               "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert rc == 0 and "MuJoCo C's step 1 ms (the export's 2 ms)" in out
+    summary = json.loads((tmp_path / "crosscheck.json").read_text())["summary"]
+    assert summary["mujoco_dt"] == 0.001 and summary["n"] == 4
+
+
 @pytest.mark.slow
 def test_crosscheck_with_mjx(tmp_path, capsys):
     rc = main(["crosscheck", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--random", "2",
