@@ -93,6 +93,18 @@ def _variant_options(p: argparse.ArgumentParser) -> None:
                         "(cpgjax study-dt)")
 
 
+ROUGH_STEP_NOTE = ("note: on rough ground MuJoCo C at its default 2 ms step lets fast gaits fall that walk at every "
+                   "step from 0.5 ms down; judge them with --mujoco-dt 0.00025 (docs/crosscheck.md)")
+
+
+def rough_step_note(terrains, mujoco_dt) -> str | None:
+    """:data:`ROUGH_STEP_NOTE` when MuJoCo runs at the export's step on any rough terrain of ``terrains`` (specs,
+    None for flat), else None (docs/results/engine-agreement.md, *MuJoCo's step on rough ground*)."""
+    if mujoco_dt is None and any(str(t or "").startswith("rough") for t in terrains):
+        return ROUGH_STEP_NOTE
+    return None
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from cpgjax.crosscheck.mjcf import load, to_mjcf
     from cpgjax.io.wl import load_model
@@ -128,6 +140,9 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     if args.n:
         coeffs, labels = coeffs[: args.n], labels[: args.n]
     T = args.time or model.time_max
+    note = rough_step_note([model.terrain.spec], args.mujoco_dt)
+    if note:
+        print(note, file=sys.stderr)
     rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, ceiling=not args.no_ceiling,
                                    show=args.show, out_dir=args.out, mujoco_dt=args.mujoco_dt)
     engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
@@ -161,6 +176,12 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     for note in (writing_note(p) for p in files):
         if note:
             print(note, file=sys.stderr)
+    from cpgjax.io.results import read_run
+
+    note = rough_step_note([args.terrain] if args.terrain else [transfer.run_setting(read_run(p))[2] for p in files],
+                           args.mujoco_dt)
+    if note:
+        print(note, file=sys.stderr)
     pick, here = None, []
     if args.pick == "validated":
         from cpgjax.experiments.validate import validate

@@ -46,6 +46,18 @@ def test_crosscheck_runs_mujoco_at_the_step_it_is_given(tmp_path, capsys):
     assert summary["mujoco_dt"] == 0.001 and summary["n"] == 4
 
 
+def test_rough_ground_at_mujocos_default_step_gets_a_note():
+    """`crosscheck` and `transfer` say on standard error to judge rough ground at 0.25 ms when MuJoCo would run at
+    the export's 2 ms there (docs/results/engine-agreement.md, *MuJoCo's step on rough ground*)."""
+    from cpgjax.cli.crosscheck import ROUGH_STEP_NOTE, rough_step_note
+
+    assert rough_step_note(["rough:0.02:0.1:1"], None) == ROUGH_STEP_NOTE
+    assert rough_step_note([None, "rough:0.02"], None) == ROUGH_STEP_NOTE      # a run evolved on rough ground
+    assert rough_step_note(["rough:0.02"], 0.00025) is None
+    assert rough_step_note(["flat", None, "bump:0.02", "ramp:0.1"], None) is None
+    assert "--mujoco-dt 0.00025" in ROUGH_STEP_NOTE
+
+
 @pytest.mark.slow
 def test_crosscheck_with_mjx(tmp_path, capsys):
     rc = main(["crosscheck", "models/quadruped.wl", "--ctl", "models/quadruped-trot.ctl", "--random", "2",
