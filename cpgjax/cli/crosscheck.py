@@ -176,10 +176,12 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     for note in (writing_note(p) for p in files):
         if note:
             print(note, file=sys.stderr)
-    from cpgjax.io.results import read_run
+    from cpgjax.io.results import read_attrs
 
-    note = rough_step_note([args.terrain] if args.terrain else [transfer.run_setting(read_run(p))[2] for p in files],
-                           args.mujoco_dt)
+    # the terrain each run will be replayed on, from its attributes alone (the rows are read once, to replay)
+    terrains = [args.terrain] if args.terrain else [
+        transfer.evolved_terrain(json.loads(read_attrs(p).get("meta") or "{}")) for p in files]
+    note = rough_step_note(terrains, args.mujoco_dt)
     if note:
         print(note, file=sys.stderr)
     pick, here = None, []

@@ -134,6 +134,11 @@ def sentence(r: Replay, replays: int) -> str:
 
 
 
+def evolved_terrain(meta) -> str | None:
+    """The terrain a run was evolved on (its ``--terrain``; None: the model file's), from its meta attribute."""
+    return json.loads(meta.get("cli_problem_args", "{}") or "{}").get("terrain")
+
+
 def run_setting(run) -> tuple[str, float | None, str | None]:
     """(evaluation mode as the tables name it, episode length, nominal terrain) of a run: what it was evolved on."""
     cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
@@ -147,7 +152,7 @@ def run_setting(run) -> tuple[str, float | None, str | None]:
         evaluation += f", bristle up to 10^{float(falls['bristle']):g}"
     if run.meta.get("controller"):                                   # a closed-loop controller family: its own row
         evaluation += f", {run.meta['controller']}"
-    return evaluation, cli.get("time") or run.meta.get("time"), cli.get("terrain")
+    return evaluation, cli.get("time") or run.meta.get("time"), evolved_terrain(run.meta)
 
 
 def _stats(res: dict) -> dict:

@@ -50,12 +50,15 @@ def test_rough_ground_at_mujocos_default_step_gets_a_note():
     """`crosscheck` and `transfer` say on standard error to judge rough ground at 0.25 ms when MuJoCo would run at
     the export's 2 ms there (docs/results/engine-agreement.md, *MuJoCo's step on rough ground*)."""
     from cpgjax.cli.crosscheck import ROUGH_STEP_NOTE, rough_step_note
+    from cpgjax.crosscheck.transfer import evolved_terrain  # what `transfer` reads of a run without --terrain
 
     assert rough_step_note(["rough:0.02:0.1:1"], None) == ROUGH_STEP_NOTE
     assert rough_step_note([None, "rough:0.02"], None) == ROUGH_STEP_NOTE      # a run evolved on rough ground
     assert rough_step_note(["rough:0.02"], 0.00025) is None
     assert rough_step_note(["flat", None, "bump:0.02", "ramp:0.1"], None) is None
     assert "--mujoco-dt 0.00025" in ROUGH_STEP_NOTE
+    assert evolved_terrain({"cli_problem_args": '{"terrain": "rough:0.02", "time": 2}'}) == "rough:0.02"
+    assert evolved_terrain({"cli_problem_args": '{"time": 2}'}) is None and evolved_terrain({}) is None
 
 
 @pytest.mark.slow
