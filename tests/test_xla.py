@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import subprocess
 import sys
@@ -67,6 +68,7 @@ def test_a_second_run_loads_the_program_the_first_compiled_with_the_same_bits(tm
 
 # --- per-program compile options (cpgjax/_xla.py, fourth part) ---
 
+@functools.cache
 def _lowered(*pipelines):
     """A program stepping the quadruped once on each of ``pipelines`` (lowered, not compiled)."""
     import jax
