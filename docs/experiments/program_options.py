@@ -1,13 +1,13 @@
 """The exact pipeline's compile options (`cpgjax._xla.PROGRAM_OPTIONS`) against none and against others, side by side
 in one process: the episode program's speed, its compile and its results' bits.
 
-    CPGJAX_COMPILE_CACHE=0 python docs/experiments/program_options.py [BATCH] [SECONDS] [OPTIONS ...]
+    CPGJAX_COMPILE_CACHE=0 python docs/experiments/program_options.py [PIPELINE] [BATCH] [SECONDS] [OPTIONS ...]
 
-BATCH random controllers (default 20) of the quadruped on exact joints, one `episode.batch.evaluate` of SECONDS
+BATCH random controllers (default 20) of the quadruped on PIPELINE (exact, the default, or springs), one `episode.batch.evaluate` of SECONDS
 (default 2) compiled ahead of time once per option set (its compile printed), then the best of 3 calls timed (wall);
-a hash of every output: equal hashes, equal bits.  The option sets, in this order: cpgjax's own ("program
-options"), none ("no options"), then each OPTIONS argument, a JSON object of LLVM or XLA backend options that
-replaces cpgjax's for that program, e.g. '{"-unroll-full-max-count": "4"}'.
+a hash of every output: equal hashes, equal bits.  The option sets, in this order: cpgjax's own for the pipeline
+("program options", where it has some), none ("no options"), then each OPTIONS argument, a JSON object of LLVM or
+XLA backend options that replaces cpgjax's for that program, e.g. '{"-unroll-full-max-count": "4"}'.
 """
 
 import hashlib
@@ -43,15 +43,18 @@ def measure(model, c, T):
 
 
 if __name__ == "__main__":
-    batch = int(sys.argv[1]) if len(sys.argv) > 1 else 20
-    T = float(sys.argv[2]) if len(sys.argv) > 2 else 2.0
-    model = load_model("models/quadruped.wl", pipeline="exact")
+    args = sys.argv[1:]
+    pipeline = args.pop(0) if args and args[0] in ("exact", "springs") else "exact"
+    batch = int(args.pop(0)) if args else 20
+    T = float(args.pop(0)) if args else 2.0
+    model = load_model("models/quadruped.wl", pipeline=pipeline)
     c = np.asarray(_controllers(model, batch), np.float32)
-    own = dict(_xla.PROGRAM_OPTIONS["exact"])
-    sets = [("program options", own), ("no options", None)] + [(a, json.loads(a)) for a in sys.argv[3:]]
-    print(f"{batch} robots, {T:g} s episodes, {len(jax.devices())} host devices; program options: {own}")
+    own = dict(_xla.PROGRAM_OPTIONS.get(pipeline, {}))
+    sets = ([("program options", own)] if own else []) + [("no options", None)] + [(a, json.loads(a)) for a in args]
+    print(f"{pipeline} pipeline, {batch} robots, {T:g} s episodes, {len(jax.devices())} host devices; "
+          f"program options: {own or 'none'}")
     for name, opts in sets:
         _xla.program_options_on = opts is not None
-        _xla.PROGRAM_OPTIONS["exact"] = opts or own
+        _xla.PROGRAM_OPTIONS[pipeline] = opts or own
         compile_s, rate, h = measure(model, c, T)
         print(f"{name}: compile {compile_s:.2f} s, {rate:,.0f} robot-s per s, results {h}", flush=True)
