@@ -3,11 +3,12 @@ in one process: the episode program's speed, its compile and its results' bits.
 
     CPGJAX_COMPILE_CACHE=0 python docs/experiments/program_options.py [PIPELINE] [BATCH] [SECONDS] [OPTIONS ...]
 
-BATCH random controllers (default 20) of the quadruped on PIPELINE (exact, the default, or springs), one `episode.batch.evaluate` of SECONDS
-(default 2) compiled ahead of time once per option set (its compile printed), then the best of 3 calls timed (wall);
-a hash of every output: equal hashes, equal bits.  The option sets, in this order: cpgjax's own for the pipeline
-("program options", where it has some), none ("no options"), then each OPTIONS argument, a JSON object of LLVM or
-XLA backend options that replaces cpgjax's for that program, e.g. '{"-unroll-full-max-count": "4"}'.
+BATCH random controllers (default 20) of the quadruped on PIPELINE (exact, the default, or springs), one
+`episode.batch.evaluate` of SECONDS (default 2) compiled ahead of time once per option set (its compile printed),
+then the best of 3 calls timed (wall); a hash of every output: equal hashes, equal bits.  The option sets, in this
+order: cpgjax's own for the pipeline ("program options", where it has some), none ("no options"), then each OPTIONS
+argument, a JSON object of LLVM or XLA backend options that replaces cpgjax's for that program, e.g.
+'{"-unroll-full-max-count": "4"}'.
 """
 
 import hashlib
