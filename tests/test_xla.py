@@ -15,8 +15,6 @@ from cpgjax import _xla
 # and whether its executable came from the persistent cache (JAX's own monitoring event).
 CHILD = r"""
 import sys
-
-import pytest
 import cpgjax
 from cpgjax import _xla
 if sys.argv[1] == "cold":
@@ -87,12 +85,12 @@ def _lowered(*pipelines):
 
 
 def test_a_program_of_one_pipeline_gets_that_pipelines_options_and_no_other_does():
+    import jax
+
     assert _xla.marks(_lowered("exact")) == {"exact"}
     assert _xla.program_options(_lowered("exact")) == _xla.PROGRAM_OPTIONS["exact"] != {}
     assert _xla.program_options(_lowered("springs")) == _xla.PROGRAM_OPTIONS.get("springs", {})
     assert _xla.program_options(_lowered("exact", "springs")) == {}        # both pipelines: neither's options
-    import jax
-
     assert _xla.program_options(jax.jit(lambda x: x * 2).lower(1.0).compiler_ir()) == {}
 
 
