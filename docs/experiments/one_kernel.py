@@ -8,8 +8,8 @@ one kernel, instead of one kernel per fusion, copy and loop (the form it gives s
 first form times a `jax.lax.scan` of STEPS steps (default 200) of the quadruped on exact joints at each width
 (default 16,32,64,128,256 robots; random servo targets, the same for a robot at every width), as CPU and wall
 seconds of the best of 5 calls, and prints a hash of the first 16 robots' final state: equal hashes, equal
-bits.  The second times `episode.batch.evaluate` of BATCH random controllers (default 20, SECONDS 2 s episodes) both ways, in
-alternation, four rounds, wall and CPU time.  Nothing here is used by cpgjax: the step is wrapped here.
+bits.  The second times `episode.batch.evaluate` of BATCH random controllers (default 20, SECONDS 2 s episodes)
+both ways, in alternation, four rounds, wall and CPU time.  Nothing here is used by cpgjax: the step is wrapped here.
 """
 
 import hashlib
