@@ -121,8 +121,10 @@ def marks(module) -> set[str]:
 
 def program_options(module) -> dict[str, str]:
     """The options a module's compile gets: a pipeline's :data:`PROGRAM_OPTIONS` when it runs that pipeline alone."""
+    if not (program_options_on and PROGRAM_OPTIONS):
+        return {}                       # nothing to give: the module is not read
     m = marks(module)
-    return dict(PROGRAM_OPTIONS.get(next(iter(m)), {})) if program_options_on and len(m) == 1 else {}
+    return dict(PROGRAM_OPTIONS.get(next(iter(m)), {})) if len(m) == 1 else {}
 
 
 def _field(number: int, payload: bytes) -> bytes:
