@@ -42,6 +42,16 @@ get it added here (:func:`with_backend_options`), for the programs that run the 
 (`sim.pipeline.step` traces a step in a :func:`program` scope named for its pipeline; a program that also runs
 the springs pipeline gets nothing).
 ``cpgjax bench --tricks --pipeline exact`` measures it (the rows "batch 20" and "batch 20, no unroll cap").
+
+Fifth, XLA's thread pools sized to the host devices (``PJRT_NPROC``, :func:`thread_pools`).  Why: XLA's CPU client
+gives each process two pools of one thread per core it may run on (at least one per host device): one runs the
+devices' programs, the other takes the kernels a program's runtime hands off when several are ready at once.  A
+step of 16 to 256 robots is hundreds of small kernels, and handing them to another thread costs more than it
+buys: with one host device on the 2-core machine (``CPGJAX_DEVICES=1``, or two such processes side by side), a
+pool of one thread ran the exact pipeline 1.4 times as fast, and the springs pipeline 1.2 times, with the
+same bits (docs/results/performance.md).  With one device per core (the default) the pools are the same size as
+before.  A ``PJRT_NPROC`` or ``NPROC`` set by the user is kept; the one a cpgjax process set is set again by a
+cpgjax process it starts (a Ray worker with other host devices).
 """
 
 from __future__ import annotations
@@ -65,6 +75,8 @@ def configure() -> None:
     if "xla_cpu_experimental_ynn_fusion_type" not in flags:
         flags += " --xla_cpu_experimental_ynn_fusion_type="
     os.environ["XLA_FLAGS"] = flags.strip()
+    forced = re.findall(r"--xla_force_host_platform_device_count=(\d+)", flags)     # the devices JAX will make
+    thread_pools(os.environ, int(forced[-1]) if forced else 1)
     if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
         d = compile_cache_dir()
         if d is not None:
@@ -73,6 +85,21 @@ def configure() -> None:
             os.environ["JAX_COMPILATION_CACHE_DIR"] = d
             if importlib.util.find_spec("filelock") is not None:    # JAX needs it for a size limit (pinned)
                 os.environ.setdefault("JAX_COMPILATION_CACHE_MAX_SIZE", str(CACHE_MAX_BYTES))
+
+
+POOL_MARK = "CPGJAX_PJRT_NPROC"     # the PJRT_NPROC that thread_pools() set (not the user's)
+
+
+def thread_pools(environ, devices: int) -> None:
+    """Size XLA's CPU thread pools to ``devices`` threads (``PJRT_NPROC``, read by XLA when JAX makes its CPU
+    client; XLA keeps at least one thread per host device), unless ``environ`` has a ``PJRT_NPROC`` or ``NPROC``
+    of the user's.  A ``PJRT_NPROC`` equal to :data:`POOL_MARK`'s was set by a cpgjax process this one was started
+    from (its environment inherited), and is set again for this process's devices."""
+    ours = environ.get(POOL_MARK)
+    user = environ.get("PJRT_NPROC")
+    if (user is not None and user != ours) or (user is None and "NPROC" in environ):
+        return
+    environ["PJRT_NPROC"] = environ[POOL_MARK] = str(devices)
 
 
 CACHE_MAX_BYTES = 2 * 2**30

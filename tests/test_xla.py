@@ -141,3 +141,39 @@ def test_the_exact_pipelines_options_change_no_value(monkeypatch):
     assert seen == [True, False]
     for a, b in zip(jax.tree.leaves(outs[0]), jax.tree.leaves(outs[1]), strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+# --- XLA's thread pools sized to the host devices (cpgjax/_xla.py, fifth part) ---
+
+def test_the_pools_are_sized_to_the_devices_unless_the_user_sized_them():
+    env = {}
+    _xla.thread_pools(env, 1)
+    assert env == {"PJRT_NPROC": "1", _xla.POOL_MARK: "1"}
+    _xla.thread_pools(env, 3)                          # a child cpgjax process inherits it: set again for its own
+    assert env["PJRT_NPROC"] == "3"
+    for user in ({"PJRT_NPROC": "4"}, {"PJRT_NPROC": "4", _xla.POOL_MARK: "2"}, {"NPROC": "4"}):
+        env = dict(user)
+        _xla.thread_pools(env, 1)
+        assert env.get("PJRT_NPROC") == user.get("PJRT_NPROC")        # the user's kept (NPROC: XLA reads it)
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="counts threads by their names in /proc")
+def test_one_host_device_runs_with_one_pool_thread():
+    """XLA's intra-op pool (threads named ``tf_XLAEigen``) of a process with one host device: one thread, not
+    one per core; with a ``PJRT_NPROC`` of the user's, that many."""
+    child = ("import collections, os, cpgjax, jax\n"
+             "jax.numpy.ones(3).block_until_ready()\n"
+             "names = [open(f'/proc/self/task/{t}/comm').read().strip() for t in os.listdir('/proc/self/task')]\n"
+             "print(len(jax.devices()), names.count('tf_XLAEigen'))")
+    base = {k: v for k, v in os.environ.items() if k not in ("PJRT_NPROC", "NPROC", _xla.POOL_MARK)}
+    # this process's device count (in XLA_FLAGS) must not pass to the child
+    base["XLA_FLAGS"] = " ".join(f for f in base.get("XLA_FLAGS", "").split()
+                                 if not f.startswith("--xla_force_host_platform_device_count"))
+
+    def run(**env):
+        out = subprocess.run([sys.executable, "-c", child], env={**base, "CPGJAX_DEVICES": "1", **env},
+                             capture_output=True, text=True, check=True).stdout.split()
+        return int(out[0]), int(out[1])
+
+    assert run() == (1, 1)
+    assert run(PJRT_NPROC="3") == (1, 3)

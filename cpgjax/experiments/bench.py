@@ -63,6 +63,38 @@ def _compile_and_run(f, x, repeats: int = 1) -> tuple[float, float]:
     return compile_s, min(runs)
 
 
+# One child process of `measure_alone`: cpgjax's set-up from its environment, then `measure` on the model.
+_ALONE = """
+import json, sys
+import cpgjax
+from cpgjax.experiments.bench import measure
+from cpgjax.io.wl import load_model
+path, pipeline, batch, time_s, chunk, repeats = json.loads(sys.argv[1])
+print(json.dumps(measure(load_model(path, pipeline=pipeline), batch, time_s, chunk=chunk, repeats=repeats)))
+"""
+
+
+def measure_alone(model_path: str, pipeline: str | None, batch: int, time_s: float, *, chunk: int = 256,
+                  repeats: int = 1, **env) -> tuple[float, float]:
+    """`measure` in a process of its own whose environment has ``env`` (e.g. ``CPGJAX_DEVICES``, ``PJRT_NPROC``):
+    what XLA reads once per process (its host devices, its thread pools), which one process cannot change.  The
+    persistent compile cache off, as in this process."""
+    import json
+    import subprocess
+    import sys
+
+    base = {k: v for k, v in os.environ.items() if k not in ("PJRT_NPROC", "NPROC", "CPGJAX_PJRT_NPROC")}
+    base["XLA_FLAGS"] = " ".join(f for f in base.get("XLA_FLAGS", "").split()      # this process's devices
+                                 if not f.startswith("--xla_force_host_platform_device_count"))
+    base.pop("JAX_COMPILATION_CACHE_DIR", None)
+    base["CPGJAX_COMPILE_CACHE"] = "0"
+    arg = json.dumps([model_path, pipeline, batch, time_s, chunk, repeats])
+    out = subprocess.run([sys.executable, "-c", _ALONE, arg], env={**base, **env}, capture_output=True, text=True,
+                         check=True).stdout
+    compile_s, run_s = json.loads(out.strip().splitlines()[-1])
+    return compile_s, run_s
+
+
 def measure_vmap(model, batch: int, time_s: float):
     """(compile_s, run_s) with `jax.vmap` of a one-robot rollout instead of the batch-last layout."""
     import jax
@@ -75,10 +107,16 @@ def measure_vmap(model, batch: int, time_s: float):
     return _compile_and_run(jax.jit(jax.vmap(one)), coeffs)
 
 
-def row(model, batch, time_s, label="", vmap=False, **kw):
+def row(model, batch, time_s, label="", vmap=False, alone=None, **kw):
+    """A table row; ``alone``: ``(model_path, pipeline, env)`` to measure in a process of its own
+    (`measure_alone`)."""
     from cpgjax.episode.rollout import schedule
 
-    compile_s, run_s = measure_vmap(model, batch, time_s) if vmap else measure(model, batch, time_s, **kw)
+    if alone is not None:
+        path, pipeline, env = alone
+        compile_s, run_s = measure_alone(path, pipeline, batch, time_s, **kw, **env)
+    else:
+        compile_s, run_s = measure_vmap(model, batch, time_s) if vmap else measure(model, batch, time_s, **kw)
     inner, outer = schedule(model, time_s)
     steps = inner * outer
     T = steps * model.dt
@@ -205,6 +243,12 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
                                  repeats=AGAINST_REPEATS))
             finally:
                 _xla.program_options_on = True
+        cores = os.cpu_count() or 1
+        if cores > 1:       # XLA's thread pools, sized once per process (cpgjax/_xla.py: thread_pools)
+            for threads in (1, cores):
+                trows.append(row(model, 20, time_s, chunk=chunk, repeats=AGAINST_REPEATS,
+                                 label=f"batch 20, 1 dev, {threads} thr",
+                                 alone=(model_path, pipeline, {"CPGJAX_DEVICES": "1", "PJRT_NPROC": str(threads)})))
         for c in (32, 64, 128, 512):
             trows.append(row(model, b, time_s, label=f"chunk {c}", chunk=c))
         print()

@@ -38,3 +38,15 @@ def test_compile_time_is_the_compile_alone(capsys):
     assert r["compile_s"] > 0 and r["wall_s"] > 0
     print_table([r])
     assert "compile: the ahead-of-time lower().compile()" in capsys.readouterr().out
+
+
+@pytest.mark.slow  # a process of its own that compiles; fast: the pools' sizes, tests/test_xla.py
+def test_a_row_measured_alone_runs_in_a_process_with_its_own_devices_and_pools():
+    """``--tricks``' rows "1 dev, N thr": `measure_alone` times the program in a child whose environment sets what
+    XLA reads once per process."""
+    from cpgjax.experiments.bench import measure_alone
+
+    compile_s, run_s = measure_alone("models/worm.wl", None, 4, 0.02, chunk=16, CPGJAX_DEVICES="1", PJRT_NPROC="1")
+    assert compile_s > 0 and run_s > 0
+    with pytest.raises(Exception, match="returned non-zero"):       # the child's failure is not a row
+        measure_alone("models/worm.wl", None, 4, 0.02, chunk=16, CPGJAX_DEVICES="many")
