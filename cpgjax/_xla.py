@@ -102,6 +102,19 @@ def thread_pools(environ, devices: int) -> None:
     environ["PJRT_NPROC"] = environ[POOL_MARK] = str(devices)
 
 
+def child_environ(environ=None) -> dict[str, str]:
+    """A copy of the environment (``environ``: default this process's) for a child process that makes its own host
+    devices and thread pools (``CPGJAX_DEVICES``, then :func:`configure`): without the device count this process put
+    in ``XLA_FLAGS`` and without the pools' size it set."""
+    env = dict(os.environ if environ is None else environ)
+    if env.get("PJRT_NPROC") is not None and env.get("PJRT_NPROC") == env.get(POOL_MARK):
+        del env["PJRT_NPROC"]
+    env.pop(POOL_MARK, None)
+    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split()
+                                if not f.startswith("--xla_force_host_platform_device_count"))
+    return env
+
+
 CACHE_MAX_BYTES = 2 * 2**30
 _OURS: str | None = None       # the cache folder configure() chose (not one set in the environment before it)
 

@@ -157,18 +157,23 @@ def test_the_pools_are_sized_to_the_devices_unless_the_user_sized_them():
         assert env.get("PJRT_NPROC") == user.get("PJRT_NPROC")        # the user's kept (NPROC: XLA reads it)
 
 
+def test_a_child_process_gets_neither_this_ones_devices_nor_its_pools():
+    ours = {"XLA_FLAGS": "--xla_cpu_max_isa=AVX2 --xla_force_host_platform_device_count=2", "PJRT_NPROC": "2",
+            _xla.POOL_MARK: "2", "HOME": "/h"}
+    assert _xla.child_environ(ours) == {"XLA_FLAGS": "--xla_cpu_max_isa=AVX2", "HOME": "/h"}
+    users = {"PJRT_NPROC": "3", _xla.POOL_MARK: "2"}                   # the user's own size stays
+    assert _xla.child_environ(users) == {"PJRT_NPROC": "3", "XLA_FLAGS": ""}
+
+
 @pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="counts threads by their names in /proc")
 def test_one_host_device_runs_with_one_pool_thread():
     """XLA's intra-op pool (threads named ``tf_XLAEigen``) of a process with one host device: one thread, not
     one per core; with a ``PJRT_NPROC`` of the user's, that many."""
-    child = ("import collections, os, cpgjax, jax\n"
+    child = ("import os, cpgjax, jax\n"
              "jax.numpy.ones(3).block_until_ready()\n"
              "names = [open(f'/proc/self/task/{t}/comm').read().strip() for t in os.listdir('/proc/self/task')]\n"
              "print(len(jax.devices()), names.count('tf_XLAEigen'))")
-    base = {k: v for k, v in os.environ.items() if k not in ("PJRT_NPROC", "NPROC", _xla.POOL_MARK)}
-    # this process's device count (in XLA_FLAGS) must not pass to the child
-    base["XLA_FLAGS"] = " ".join(f for f in base.get("XLA_FLAGS", "").split()
-                                 if not f.startswith("--xla_force_host_platform_device_count"))
+    base = {k: v for k, v in _xla.child_environ().items() if k not in ("PJRT_NPROC", "NPROC")}
 
     def run(**env):
         out = subprocess.run([sys.executable, "-c", child], env={**base, "CPGJAX_DEVICES": "1", **env},

@@ -83,15 +83,16 @@ def measure_alone(model_path: str, pipeline: str | None, batch: int, time_s: flo
     import subprocess
     import sys
 
-    base = {k: v for k, v in os.environ.items() if k not in ("PJRT_NPROC", "NPROC", "CPGJAX_PJRT_NPROC")}
-    base["XLA_FLAGS"] = " ".join(f for f in base.get("XLA_FLAGS", "").split()      # this process's devices
-                                 if not f.startswith("--xla_force_host_platform_device_count"))
+    from cpgjax import _xla
+
+    base = _xla.child_environ()
     base.pop("JAX_COMPILATION_CACHE_DIR", None)
     base["CPGJAX_COMPILE_CACHE"] = "0"
     arg = json.dumps([model_path, pipeline, batch, time_s, chunk, repeats])
-    out = subprocess.run([sys.executable, "-c", _ALONE, arg], env={**base, **env}, capture_output=True, text=True,
-                         check=True).stdout
-    compile_s, run_s = json.loads(out.strip().splitlines()[-1])
+    r = subprocess.run([sys.executable, "-c", _ALONE, arg], env={**base, **env}, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"measuring {model_path} in a process of its own ({env}) failed:\n{r.stderr[-2000:]}")
+    compile_s, run_s = json.loads(r.stdout.strip().splitlines()[-1])
     return compile_s, run_s
 
 

@@ -149,10 +149,9 @@ def test_baselines_score_their_genomes_on_one_host_device_too(tmp_path):
     import subprocess
     import sys
 
-    env = dict(os.environ, CPGJAX_DEVICES="1")
-    # this process's device count (cpgjax/_xla.py puts it in XLA_FLAGS) must not pass to the child
-    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split()
-                                if not f.startswith("--xla_force_host_platform_device_count"))
+    from cpgjax import _xla
+
+    env = dict(_xla.child_environ(), CPGJAX_DEVICES="1")    # not this process's devices and pools
     r = subprocess.run([sys.executable, "-c", ONE_DEVICE, WL, str(tmp_path / "one")], cwd=ROOT, env=env,
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-4000:]
