@@ -27,7 +27,7 @@ test suite has always run on such a cache: tests/conftest.py).  JAX's key covers
 and the XLA flags; the folder adds the CPU's model and vector ISA, so that a home folder shared by
 several machines never loads a program compiled for another CPU.  A size limit (2 GiB, least recently
 used first out) also turns on JAX's file lock, for sweeps whose processes share it.
-``CPGJAX_COMPILE_CACHE=0`` turns it off, ``CPGJAX_COMPILE_CACHE=DIR`` moves it; a
+``CPGJAX_COMPILE_CACHE=0`` turns it off (``=1``: on, the default), ``CPGJAX_COMPILE_CACHE=DIR`` moves it; a
 ``JAX_COMPILATION_CACHE_DIR`` already set wins.  ``cpgjax bench`` turns it off for itself (its compile
 column is a cold compile).
 
@@ -211,11 +211,14 @@ def install_program_options() -> None:
 
 def compile_cache_dir(environ=None) -> str | None:
     """The persistent compilation cache's folder for this CPU, made if missing; None when turned off
-    (``CPGJAX_COMPILE_CACHE=0``) or when it cannot be written (a read-only home: the run goes on uncached)."""
+    (``CPGJAX_COMPILE_CACHE=0``) or when it cannot be written (a read-only home: the run goes on uncached).
+    ``CPGJAX_COMPILE_CACHE=1`` is the default folder, not one named "1"."""
     env = os.environ if environ is None else environ
     choice = env.get("CPGJAX_COMPILE_CACHE", "")
     if choice == "0":
         return None
+    if choice == "1":
+        choice = ""
     base = choice or os.path.join(env.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
                                   "cpgjax", "xla")
     cpu = cpu_model()

@@ -37,6 +37,7 @@ def test_the_cache_folder_is_per_cpu_and_can_be_moved_or_turned_off(tmp_path):
     if _xla.isa("") in _xla.ISAS[1:]:          # a capped ISA is another folder
         capped = _xla.compile_cache_dir({**env, "XLA_FLAGS": "--xla_cpu_max_isa=SSE4_2"})
         assert os.path.basename(capped).startswith("SSE4_2-") and capped != d
+    assert _xla.compile_cache_dir({**env, "CPGJAX_COMPILE_CACHE": "1"}) == d             # on: the default folder
     assert _xla.compile_cache_dir({**env, "CPGJAX_COMPILE_CACHE": str(tmp_path / "mine")}).startswith(
         str(tmp_path / "mine") + os.sep)
     assert _xla.compile_cache_dir({**env, "CPGJAX_COMPILE_CACHE": "0"}) is None
