@@ -6,7 +6,10 @@ the batch split across them (`cpgjax.episode.batch`).  That needs
 ``--xla_force_host_platform_device_count`` set before ``import jax``.  This module is
 imported first by ``cpgjax/__init__.py``; if JAX was already imported (e.g. by a
 notebook), the flag cannot take effect and cpgjax falls back to the devices it has.
-Set ``CPGJAX_DEVICES=1`` to opt out, or to a number to choose the device count.
+Set ``CPGJAX_DEVICES=1`` to opt out, or to a number to choose the device count.  A process started by a cpgjax
+process inherits the count it put in ``XLA_FLAGS`` (:data:`DEVICES_MARK` says which count that was); its own
+``CPGJAX_DEVICES`` replaces it (a Ray worker's share of the cores, a script's ``CPGJAX_DEVICES=1`` runs), while
+a count the user wrote in ``XLA_FLAGS`` is kept.
 `cpgjax bench` reports robot-steps per second for 1 device and for all of them.
 
 Second, ``--xla_cpu_experimental_ynn_fusion_type=`` (empty: no YNNPACK fusions).  Why: from 96 robots
@@ -69,13 +72,14 @@ def configure() -> None:
         return
     n = os.environ.get("CPGJAX_DEVICES")
     count = int(n) if n else (os.cpu_count() or 1)
-    flags = os.environ.get("XLA_FLAGS", "")
-    if "xla_force_host_platform_device_count" not in flags and count > 1:
-        flags += f" --xla_force_host_platform_device_count={count}"
+    flags, ours = device_flags(os.environ.get("XLA_FLAGS", ""), count, n is not None,
+                               os.environ.pop(DEVICES_MARK, None))
+    if ours is not None:
+        os.environ[DEVICES_MARK] = ours
     if "xla_cpu_experimental_ynn_fusion_type" not in flags:
         flags += " --xla_cpu_experimental_ynn_fusion_type="
     os.environ["XLA_FLAGS"] = flags.strip()
-    forced = re.findall(r"--xla_force_host_platform_device_count=(\d+)", flags)     # the devices JAX will make
+    forced = re.findall(DEVICE_FLAG + r"=(\d+)", flags)         # the devices JAX will make
     thread_pools(os.environ, int(forced[-1]) if forced else 1)
     if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
         d = compile_cache_dir()
@@ -85,6 +89,27 @@ def configure() -> None:
             os.environ["JAX_COMPILATION_CACHE_DIR"] = d
             if importlib.util.find_spec("filelock") is not None:    # JAX needs it for a size limit (pinned)
                 os.environ.setdefault("JAX_COMPILATION_CACHE_MAX_SIZE", str(CACHE_MAX_BYTES))
+
+
+DEVICE_FLAG = "--xla_force_host_platform_device_count"
+DEVICES_MARK = "CPGJAX_XLA_DEVICES"     # the device count configure() put in XLA_FLAGS (not the user's)
+
+
+def device_flags(flags: str, count: int, chosen: bool, inherited: str | None) -> tuple[str, str | None]:
+    """``(XLA_FLAGS, ours)``: the flags with ``count`` host devices where they have no count (none for one device);
+    where they have one, kept, unless it is the one a cpgjax parent process set (``inherited``, its
+    :data:`DEVICES_MARK`) and this process chose its own (``chosen``: ``CPGJAX_DEVICES`` set).  ``ours``: the count
+    in the flags that cpgjax set (for :data:`DEVICES_MARK`), None where the flags have none or the user's."""
+    tokens = flags.split()
+    parents = inherited is not None and f"{DEVICE_FLAG}={inherited}" in tokens
+    if parents and chosen:
+        tokens = [t for t in tokens if not t.startswith(DEVICE_FLAG)]
+    elif any(t.startswith(DEVICE_FLAG) for t in tokens):
+        return " ".join(tokens), inherited if parents else None
+    if count > 1:
+        tokens.append(f"{DEVICE_FLAG}={count}")
+        return " ".join(tokens), str(count)
+    return " ".join(tokens), None
 
 
 POOL_MARK = "CPGJAX_PJRT_NPROC"     # the PJRT_NPROC that thread_pools() set (not the user's)
@@ -110,8 +135,8 @@ def child_environ(environ=None) -> dict[str, str]:
     if env.get("PJRT_NPROC") is not None and env.get("PJRT_NPROC") == env.get(POOL_MARK):
         del env["PJRT_NPROC"]
     env.pop(POOL_MARK, None)
-    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split()
-                                if not f.startswith("--xla_force_host_platform_device_count"))
+    env.pop(DEVICES_MARK, None)
+    env["XLA_FLAGS"] = " ".join(f for f in env.get("XLA_FLAGS", "").split() if not f.startswith(DEVICE_FLAG))
     return env
 
 

@@ -158,9 +158,22 @@ def test_the_pools_are_sized_to_the_devices_unless_the_user_sized_them():
         assert env.get("PJRT_NPROC") == user.get("PJRT_NPROC")        # the user's kept (NPROC: XLA reads it)
 
 
+def test_the_device_count_is_the_users_or_this_processes_not_a_parents():
+    flag = _xla.DEVICE_FLAG
+    assert _xla.device_flags("--a", 2, False, None) == (f"--a {flag}=2", "2")
+    assert _xla.device_flags("--a", 1, True, None) == ("--a", None)                    # one device: no flag
+    parents = f"--a {flag}=2"                                                          # inherited from cpgjax
+    assert _xla.device_flags(parents, 1, True, "2") == ("--a", None)                   # CPGJAX_DEVICES=1 wins
+    assert _xla.device_flags(parents, 4, True, "2") == (f"--a {flag}=4", "4")
+    assert _xla.device_flags(parents, 8, False, "2") == (parents, "2")                 # none chosen: the parent's
+    users = f"--a {flag}=3"                                                            # written by the user
+    assert _xla.device_flags(users, 1, True, None) == (users, None)
+    assert _xla.device_flags(users, 1, True, "2") == (users, None)
+
+
 def test_a_child_process_gets_neither_this_ones_devices_nor_its_pools():
     ours = {"XLA_FLAGS": "--xla_cpu_max_isa=AVX2 --xla_force_host_platform_device_count=2", "PJRT_NPROC": "2",
-            _xla.POOL_MARK: "2", "HOME": "/h"}
+            _xla.POOL_MARK: "2", _xla.DEVICES_MARK: "2", "HOME": "/h"}
     assert _xla.child_environ(ours) == {"XLA_FLAGS": "--xla_cpu_max_isa=AVX2", "HOME": "/h"}
     users = {"PJRT_NPROC": "3", _xla.POOL_MARK: "2"}                   # the user's own size stays
     assert _xla.child_environ(users) == {"PJRT_NPROC": "3", "XLA_FLAGS": ""}
@@ -168,13 +181,14 @@ def test_a_child_process_gets_neither_this_ones_devices_nor_its_pools():
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="counts threads by their names in /proc")
 def test_one_host_device_runs_with_one_pool_thread():
-    """XLA's intra-op pool (threads named ``tf_XLAEigen``) of a process with one host device: one thread, not
-    one per core; with a ``PJRT_NPROC`` of the user's, that many."""
+    """A process started from this one (its environment inherited) with ``CPGJAX_DEVICES=1``: one host device, and
+    XLA's intra-op pool (threads named ``tf_XLAEigen``) one thread, not one per core; with a ``PJRT_NPROC`` of the
+    user's, that many."""
     child = ("import os, cpgjax, jax\n"
              "jax.numpy.ones(3).block_until_ready()\n"
              "names = [open(f'/proc/self/task/{t}/comm').read().strip() for t in os.listdir('/proc/self/task')]\n"
              "print(len(jax.devices()), names.count('tf_XLAEigen'))")
-    base = {k: v for k, v in _xla.child_environ().items() if k not in ("PJRT_NPROC", "NPROC")}
+    base = {k: v for k, v in os.environ.items() if k != "NPROC"}      # this process's devices and pools, inherited
 
     def run(**env):
         out = subprocess.run([sys.executable, "-c", child], env={**base, "CPGJAX_DEVICES": "1", **env},
