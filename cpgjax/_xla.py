@@ -6,6 +6,8 @@ the batch split across them (`cpgjax.episode.batch`).  That needs
 ``--xla_force_host_platform_device_count`` set before ``import jax``.  This module is
 imported first by ``cpgjax/__init__.py``; if JAX was already imported (e.g. by a
 notebook), the flag cannot take effect and cpgjax falls back to the devices it has.
+One device per core the process may run on (:func:`default_devices`: a Slurm job's cpuset of 4 cores on a node of
+64 makes 4, not 64), at least two on a machine of two cores or more.
 Set ``CPGJAX_DEVICES=1`` to opt out, or to a number to choose the device count.  A process started by a cpgjax
 process inherits the count it put in ``XLA_FLAGS`` (:data:`DEVICES_MARK` says which count that was); its own
 ``CPGJAX_DEVICES`` replaces it (a Ray worker's share of the cores, a script's ``CPGJAX_DEVICES=1`` runs), while
@@ -71,7 +73,7 @@ def configure() -> None:
     if "jax" in sys.modules:
         return
     n = os.environ.get("CPGJAX_DEVICES")
-    count = int(n) if n else (os.cpu_count() or 1)
+    count = int(n) if n else default_devices()
     flags, ours = device_flags(os.environ.get("XLA_FLAGS", ""), count, n is not None,
                                os.environ.pop(DEVICES_MARK, None))
     if ours is not None:
@@ -89,6 +91,20 @@ def configure() -> None:
             os.environ["JAX_COMPILATION_CACHE_DIR"] = d
             if importlib.util.find_spec("filelock") is not None:    # JAX needs it for a size limit (pinned)
                 os.environ.setdefault("JAX_COMPILATION_CACHE_MAX_SIZE", str(CACHE_MAX_BYTES))
+
+
+def default_devices(cores: int | None = None, usable: int | None = None) -> int:
+    """One host device per core this process may run on (``usable``: its CPU affinity, which a Slurm job's or a
+    container's cpuset narrows; ``cores``: the machine's), and at least two on a machine of two cores or more, where
+    a robot's result does not depend on the number of devices (with one, a sweep's program compiles otherwise:
+    docs/sweeps.md)."""
+    cores = cores if cores is not None else (os.cpu_count() or 1)
+    if usable is None:
+        try:
+            usable = len(os.sched_getaffinity(0))
+        except (AttributeError, OSError):       # not on Linux
+            usable = cores
+    return max(min(2, cores), min(usable, cores))
 
 
 DEVICE_FLAG = "--xla_force_host_platform_device_count"

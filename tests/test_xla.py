@@ -158,6 +158,14 @@ def test_the_pools_are_sized_to_the_devices_unless_the_user_sized_them():
         assert env.get("PJRT_NPROC") == user.get("PJRT_NPROC")        # the user's kept (NPROC: XLA reads it)
 
 
+def test_one_device_per_core_the_process_may_use_and_two_at_least():
+    assert _xla.default_devices(cores=64, usable=4) == 4          # a job's cpuset on a larger node
+    assert _xla.default_devices(cores=2, usable=2) == 2
+    assert _xla.default_devices(cores=64, usable=1) == 2          # two at least: the numbers of two or more
+    assert _xla.default_devices(cores=1, usable=1) == 1
+    assert _xla.default_devices() >= 1
+
+
 def test_the_device_count_is_the_users_or_this_processes_not_a_parents():
     flag = _xla.DEVICE_FLAG
     assert _xla.device_flags("--a", 2, False, None) == (f"--a {flag}=2", "2")
