@@ -185,6 +185,9 @@ def test_a_child_process_gets_neither_this_ones_devices_nor_its_pools():
     assert _xla.child_environ(ours) == {"XLA_FLAGS": "--xla_cpu_max_isa=AVX2", "HOME": "/h"}
     users = {"PJRT_NPROC": "3", _xla.POOL_MARK: "2"}                   # the user's own size stays
     assert _xla.child_environ(users) == {"PJRT_NPROC": "3", "XLA_FLAGS": ""}
+    child = {**_xla.child_environ(ours), "PJRT_NPROC": "2"}            # bench's "1 dev, 2 thr": a size of its own,
+    _xla.thread_pools(child, 1)                                        # even the one this process had
+    assert child["PJRT_NPROC"] == "2"
 
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="counts threads by their names in /proc")
