@@ -1,4 +1,5 @@
-"""What the contact solve's second pass costs: how often a batch takes it, and the step with and without it.
+"""What the contact solve's second pass costs (how often a batch takes it, the step with and without it), and its
+dampers' ``J^T K J``.
 
     CPGJAX_DEVICES=1 CPGJAX_COMPILE_CACHE=0 taskset -c 1 python docs/experiments/release_pass.py [BATCH] [STEPS]
 
@@ -11,8 +12,10 @@ for STEPS steps (default 500) from the standing start, in one `jax.lax.scan`:
    robot-steps in which that robot does (what the second pass is for);
 2. the CPU time per step (best of 5 calls) of cpgjax's step; of the same physics with the first solve outside the
    loop and the second in a loop of zero or one trip; and of the step with one pass only (the release left out:
-   other physics, so an upper bound on what a cheaper release could buy); two rounds alternating, and each one's
-   compile; the first 16 robots' final state hashed, to compare bits across batch widths and XLA options.
+   other physics, so an upper bound on what a cheaper release could buy); and of that one pass without the contact
+   dampers in the joint-space inertia (no ``J^T K J``: the dampers explicit, other physics again); two rounds
+   alternating, and each one's compile; the first 16 robots' final state hashed, to compare bits across batch
+   widths and XLA options.
 """
 
 import hashlib
@@ -29,6 +32,12 @@ from cpgjax.sim import initial_state, step
 from cpgjax.sim.exact import contact as C
 
 RELEASE = C._release
+DAMPED = C._damped
+
+
+def undamped(model, qM, jac, beta, gamma):
+    """``qM`` without the contact dampers' ``J^T K J``: the dampers then act on the start-of-step velocities alone."""
+    return qM
 
 
 def one_pass(solve, push, lam, qfrc):
@@ -97,12 +106,14 @@ def main(batch: int, steps: int) -> None:
           f"of the steps; a robot released a vertex in {pulled.mean():.1%} of its steps", flush=True)
     print("us per step (CPU, best of 5), compile, first 16 robots' final state")
     for r in range(2):
-        for name, release in (("cpgjax (second pass where needed)", RELEASE), ("first pass outside the loop", split),
-                              ("one pass only", one_pass)):
-            C._release = release
+        for name, release, damped in (("cpgjax (second pass where needed)", RELEASE, DAMPED),
+                                      ("first pass outside the loop", split, DAMPED),
+                                      ("one pass only", one_pass, DAMPED),
+                                      ("one pass, no J^T K J", one_pass, undamped)):
+            C._release, C._damped = release, damped
             us, compile_s, h = per_step(model, ctrl, s, steps)
             print(f"  round {r + 1}, {name:34s} {us:7.1f} us  compile {compile_s:4.1f} s  {h}", flush=True)
-    C._release = RELEASE
+    C._release, C._damped = RELEASE, DAMPED
 
 
 if __name__ == "__main__":
