@@ -15,7 +15,8 @@ for STEPS steps (default 500) from the standing start, in one `jax.lax.scan`:
    other physics, so an upper bound on what a cheaper release could buy); and of that one pass without the contact
    dampers in the joint-space inertia (no ``J^T K J``: the dampers explicit, other physics again); two rounds
    alternating, and each one's compile; the first 16 robots' final state hashed, to compare bits across batch
-   widths and XLA options.
+   widths and XLA options; in the first round, the largest body speed of any robot in any step (a step that
+   diverges shows there).
 """
 
 import hashlib
@@ -91,6 +92,14 @@ def per_step(model, ctrl, s, steps):
     return 1e6 * best / steps, compile_s, h.hexdigest()[:10]
 
 
+def top_speed(model, ctrl, s, steps):
+    """The largest body speed [m/s] of any robot in any step: a step that diverges shows here."""
+    def body(s, _):
+        s = step(model, s, ctrl)
+        return s, jnp.max(jnp.sqrt(jnp.sum(s.v * s.v, axis=0)))
+    return float(jnp.max(jax.jit(lambda s: jax.lax.scan(body, s, None, length=steps)[1])(s)))
+
+
 def main(batch: int, steps: int) -> None:
     model = load_model("models/quadruped.wl", pipeline="exact")
     tgt = np.random.default_rng(0).uniform(-0.3, 0.3, (model.n_ctrl, max(256, batch)))[:, :batch]
@@ -104,7 +113,7 @@ def main(batch: int, steps: int) -> None:
     pulled = np.array(seen)
     print(f"quadruped, exact joints, {batch} robots, {steps} steps: the second pass ran in {pulled.any(1).mean():.1%} "
           f"of the steps; a robot released a vertex in {pulled.mean():.1%} of its steps", flush=True)
-    print("us per step (CPU, best of 5), compile, first 16 robots' final state")
+    print("us per step (CPU, best of 5), compile, first 16 robots' final state, top body speed")
     for r in range(2):
         for name, release, damped in (("cpgjax (second pass where needed)", RELEASE, DAMPED),
                                       ("first pass outside the loop", split, DAMPED),
@@ -112,7 +121,8 @@ def main(batch: int, steps: int) -> None:
                                       ("one pass, no J^T K J", one_pass, undamped)):
             C._release, C._damped = release, damped
             us, compile_s, h = per_step(model, ctrl, s, steps)
-            print(f"  round {r + 1}, {name:34s} {us:7.1f} us  compile {compile_s:4.1f} s  {h}", flush=True)
+            top = f"  {top_speed(model, ctrl, s, steps):.2f} m/s" if r == 0 else ""
+            print(f"  round {r + 1}, {name:34s} {us:7.1f} us  compile {compile_s:4.1f} s  {h}{top}", flush=True)
     C._release, C._damped = RELEASE, DAMPED
 
 
