@@ -18,8 +18,6 @@ import jax.numpy as jnp
 import numpy as np
 
 import cpgjax  # noqa: F401  (first: the host devices)
-from cpgjax.io.wl import load_model
-from cpgjax.sim import initial_state
 from cpgjax.sim.contact import bristle, contact_frame, friction, ground, trail_anchor
 from cpgjax.sim.exact import contact as C
 from cpgjax.sim.exact import step as ST
@@ -121,11 +119,7 @@ def contact(model, state, com, qM, qfrc, var=None):
 
 
 def main(batch: int, steps: int) -> None:
-    model = load_model("models/quadruped.wl", pipeline="exact")
-    tgt = np.random.default_rng(0).uniform(-0.3, 0.3, (model.n_ctrl, max(256, batch)))[:, :batch]
-    tgt = jnp.asarray(tgt, jnp.float32)
-    ctrl = (tgt, jnp.zeros_like(tgt))
-    s = initial_state(model, batch)
+    model, ctrl, s = R.setup(batch)
     print(f"quadruped, exact joints, {batch} robots, {steps} steps: us per step (CPU, best of 5), compile, "
           "robot 0's final position")
     for r in range(2):

@@ -100,12 +100,16 @@ def top_speed(model, ctrl, s, steps):
     return float(jnp.max(jax.jit(lambda s: jax.lax.scan(body, s, None, length=steps)[1])(s)))
 
 
-def main(batch: int, steps: int) -> None:
+def setup(batch: int):
+    """The quadruped on exact joints, its servo targets (the first ``batch`` of 256 random ones) and start."""
     model = load_model("models/quadruped.wl", pipeline="exact")
     tgt = np.random.default_rng(0).uniform(-0.3, 0.3, (model.n_ctrl, max(256, batch)))[:, :batch]
     tgt = jnp.asarray(tgt, jnp.float32)
-    ctrl = (tgt, jnp.zeros_like(tgt))
-    s = initial_state(model, batch)
+    return model, (tgt, jnp.zeros_like(tgt)), initial_state(model, batch)
+
+
+def main(batch: int, steps: int) -> None:
+    model, ctrl, s = setup(batch)
     seen = []
     C._release = counted(seen)
     jax.block_until_ready(scan(model, ctrl, steps)(s))
