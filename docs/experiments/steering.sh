@@ -1,11 +1,12 @@
 #!/bin/sh
-# Steering without an oracle (docs/results/closed-loop.md, "Steering without an oracle"): a closed-loop gait
+# Steering without an oracle (docs/results/steering.md): a closed-loop gait
 # evolved to follow a commanded turning rate, then each path walked by the gait alone, the command set every
 # step from the robot's own pose.  Seeds 300, 301, 302 and the four paths were fixed before any was run.
 # Each evolution: the hand-written trot as the start, exact joints, 4 episodes of 10 s per controller, each
 # with a commanded rate U(-0.3, 0.3) rad/s per half, a fall forfeiting the episode, delta 1 (eq. 4.5: the score
 # weighted by cos^2 of the body's tilt); population 40, 150 generations.  Then the run's best, and every path
-# walked by every controller in one batch (cpgjax follow --ctl).  About 8-11 min per evolution on 2 shared cores.
+# walked by every controller in one batch (cpgjax follow --ctl).  115-386 s of wall time per evolution on 2 shared
+# cores (docs/results/steering.md).
 #
 #   sh docs/experiments/steering.sh [OUT] [SEEDS]        # default runs/steering, "300 301 302"
 #   REPLICAS=8 sh docs/experiments/steering.sh runs/steering-r8 "303 304 305"   # 8 episodes per controller
