@@ -17,8 +17,9 @@ setup: $(STAMP)
 # make run: a short evolution that ends with a gait that walks, here and in MuJoCo C.  The hand-written trot of
 # models/quadruped-trot.ctl is the start, the exact pipeline the physics, and every controller is scored over 4
 # episodes of domain randomisation (rough ground 0-4 cm, friction, masses, servo gains, the ground's stiffness:
-# docs/robust-evaluation.md); `cpgjax transfer` then replays the best in both engines, 32 jittered times each,
-# and its last line says whether it stays up and carries over.  The thesis's single-episode GA is `make thesis`.
+# docs/robust-evaluation.md); `cpgjax transfer` then replays the best in both engines, 32 jittered times each.
+# Its last line is make run's last line: whether the gait stays up and carries over (the hints come before it;
+# tests/test_readme.py checks the order).  The thesis's single-episode GA is `make thesis`.
 QUICK := runs/quickstart
 run: $(STAMP)
 	$(BIN)/cpgjax evolve models/quadruped.wl --start models/quadruped-trot.ctl --pipeline exact \
@@ -26,13 +27,15 @@ run: $(STAMP)
 		--gamma 0.01 --chunk 5 --seed 0 --out $(QUICK).h5 --overwrite
 	$(BIN)/cpgjax plot $(QUICK).h5 --out $(QUICK).png
 	$(BIN)/cpgjax best $(QUICK).h5 --ctl $(QUICK)-best.ctl
-	$(BIN)/cpgjax transfer $(QUICK).h5 --out $(QUICK)-transfer
 	@echo ""
-	@echo "fitness plot: $(QUICK).png   best controller: $(QUICK)-best.ctl   both engines: $(QUICK)-transfer/"
-	@echo "watch it, here and in MuJoCo side by side:  MUJOCO_GL=egl $(BIN)/cpgjax render $(QUICK).h5 --engine both --out $(QUICK).mp4"
+	@echo "fitness plot: $(QUICK).png   best controller: $(QUICK)-best.ctl"
 	@echo "replay it:  $(BIN)/cpgjax simulate models/quadruped.wl --pipeline exact --ctl $(QUICK)-best.ctl"
+	@echo "watch it, here and in MuJoCo side by side:  MUJOCO_GL=egl $(BIN)/cpgjax render $(QUICK).h5 --engine both --out $(QUICK).mp4"
 	@echo "cpgjax is installed in $(VENV), not on your PATH: run it as $(BIN)/cpgjax COMMAND,"
 	@echo "or first 'source $(BIN)/activate' and then just cpgjax COMMAND (cpgjax --help lists them)"
+	@echo ""
+	@echo "the best gait replayed in our simulator and in MuJoCo C (into $(QUICK)-transfer/); the last line says whether it carries over:"
+	$(BIN)/cpgjax transfer $(QUICK).h5 --out $(QUICK)-transfer
 
 lint: $(STAMP)
 	$(BIN)/ruff check cpgjax tests

@@ -88,3 +88,63 @@ def test_the_tolerance_lets_no_real_change_through():
         same_within("distance  +1.4000 m   (body Body)\nfallen    no\n", e, "x")
     with pytest.raises(AssertionError):
         same_within("distance  +1.3158 m   (body Body)\nfallen    yes\n", e, "x")
+
+
+# ---- `make run`: its last line is the verdict the README quotes ----------------------------------------------------
+
+MAKEFILE = README.parent / "Makefile"
+VERDICT = re.compile(r"^    (quickstart: .*: it (?:carries over|does not carry over.*))$", re.M)
+
+
+def run_recipe() -> list[str]:
+    """The recipe lines of the Makefile's ``run`` target, continuation lines joined."""
+    make = MAKEFILE.read_text()
+    body = make[make.index("\nrun:") + 1:].split("\n")[1:]
+    lines: list[str] = []
+    for line in body:
+        if not line.startswith("\t"):
+            break
+        if lines and lines[-1].endswith("\\"):
+            lines[-1] = lines[-1][:-1].rstrip() + " " + line.strip()
+        else:
+            lines.append(line.strip())
+    return lines
+
+
+def test_make_run_prints_its_hints_before_the_transfer_whose_last_line_is_the_verdict():
+    recipe = run_recipe()
+    assert recipe[-1].startswith("$(BIN)/cpgjax transfer $(QUICK).h5"), (
+        f"`make run` must end with `cpgjax transfer` (its last line is the verdict), not {recipe[-1]!r}")
+    assert sum("cpgjax transfer" in line for line in recipe) == 1
+    assert any(line.startswith("@echo") and "render" in line for line in recipe[:-1])   # the hints, before it
+
+
+def test_a_single_run_transfer_ends_with_its_verdict(tiny_runs, tmp_path, capsys, monkeypatch):
+    """`cpgjax transfer ONE.h5 --out DIR` (make run's last command) prints the one-line verdict last."""
+    from cpgjax.crosscheck import transfer
+
+    run = tiny_runs["thesis"]
+    walk = {"fitness": 0.2, "speed": 0.2, "distance": 2.0, "fallen": False}
+    jit = {"mean": 0.2, "sd": 0.0, "falls": 0, "speed": 0.2}
+    fake = transfer.Replay(run=run, evaluation="thesis", cell="c", seed=3, fitness_in_run=0.2, ours=walk,
+                           mujoco=walk, ours_jit=jit, mujoco_jit=jit)
+    monkeypatch.setattr(transfer, "replay_runs", lambda *a, **k: [fake])       # the engines faked: the order tested
+    assert cli.main(["transfer", run, "--out", str(tmp_path / "t")]) == 0
+    last = capsys.readouterr().out.rstrip("\n").splitlines()[-1]
+    assert last == transfer.sentence(fake, 32) and last.endswith(": it carries over")
+
+
+def test_the_readme_quotes_the_verdict_as_transfer_words_it():
+    """The verdict line of the README's quick start is in the words `cpgjax transfer` prints (its numbers are
+    what `make run` gave when the README was written)."""
+    from cpgjax.crosscheck import transfer
+
+    (line,) = VERDICT.findall(README.read_text())
+    nums = [float(x) for x in re.findall(r"(\d+\.\d+) m/s", line)]
+    falls = [int(x) for x in re.findall(r"(\d+) of 32 jittered", line)]
+    here = {"fitness": nums[0], "speed": nums[0], "distance": 5 * nums[0], "fallen": "here, falls" in line}
+    there = {"fitness": nums[1], "speed": nums[1], "distance": 5 * nums[1], "fallen": "C, falls" in line}
+    r = transfer.Replay(run="runs/quickstart.h5", evaluation="robust", cell="c", seed=0, fitness_in_run=nums[0],
+                        ours=here, mujoco=there, ours_jit={"mean": nums[0], "sd": 0.0, "falls": falls[0]},
+                        mujoco_jit={"mean": nums[1], "sd": 0.0, "falls": falls[1]})
+    assert transfer.sentence(r, 32) == line

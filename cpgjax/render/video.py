@@ -4,11 +4,21 @@
 episode); :class:`VideoWriter` writes into a temporary file beside the output (``.NAME.XXXX.EXT``)
 and renames it onto the output only when every frame is in, so that an error or a Ctrl-C leaves
 the old file (or none) and no partial one.
+
+MP4: :class:`H264Pipe` feeds raw frames to imageio-ffmpeg's ffmpeg binary on its stdin, started by
+:mod:`subprocess` with no Python code to run in the child.  imageio's own FFMPEG writer starts ffmpeg with
+``preexec_fn=os.setpgrp``, which makes CPython ``fork()`` the whole process and run Python in the child; in a
+process where JAX's thread pools run, that can deadlock, and JAX says so on every render (``RuntimeWarning:
+os.fork() was called ...``).  ``start_new_session=True`` does what ``os.setpgrp`` did for imageio (ffmpeg out
+of the terminal's process group: a Ctrl-C reaches cpgjax alone, which then stops ffmpeg and removes the
+temporary file) inside the child's C code, so the child is spawned without running Python and JAX's
+fork handlers.
 """
 
 from __future__ import annotations
 
 import os
+import subprocess
 import tempfile
 
 import numpy as np
@@ -63,6 +73,63 @@ def check_encoder(fmt: str) -> None:
                           f"pip install {pkg} (pinned in pyproject.toml)") from None
 
 
+class H264Pipe:
+    """Frames [H, W, 3] uint8 to an H.264 MP4 at ``path`` (yuv420p, constant quality), through ffmpeg's stdin.
+
+    The encoder's settings are those of imageio's FFMPEG writer at ``quality=7`` (CRF 15) with
+    ``macro_block_size=2`` (an odd width or height is scaled up to the next even one, as yuv420p needs).
+    """
+
+    CRF = 15
+
+    def __init__(self, path: str, fps: float):
+        self.path, self.fps = os.fspath(path), float(fps)
+        self._proc: subprocess.Popen | None = None
+        self._shape: tuple[int, ...] | None = None
+
+    def _start(self, shape: tuple[int, ...]) -> None:
+        from fractions import Fraction
+
+        import imageio_ffmpeg
+
+        h, w = shape[:2]
+        cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-f", "rawvideo", "-vcodec", "rawvideo", "-s", f"{w}x{h}",
+               "-pix_fmt", "rgb24", "-r", str(Fraction(self.fps).limit_denominator()), "-i", "-", "-an",
+               "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-crf", str(self.CRF)]
+        if w % 2 or h % 2:
+            cmd += ["-vf", f"scale={w + w % 2}:{h + h % 2}"]
+        cmd += ["-v", "error", self.path]
+        # no preexec_fn: the child runs no Python, so no fork() of this multithreaded process (module docstring)
+        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                      start_new_session=True)
+        self._shape = shape
+
+    def append(self, frame: np.ndarray) -> None:
+        if frame.ndim != 3 or frame.shape[2] != 3 or frame.shape != (self._shape or frame.shape):
+            raise RenderError(f"{self.path}: a frame of shape {frame.shape}, expected {self._shape or '(H, W, 3)'}")
+        if self._proc is None:
+            self._start(frame.shape)
+        try:
+            self._proc.stdin.write(frame.tobytes())
+        except OSError as e:                        # ffmpeg exited (its own message is on stderr)
+            raise RenderError(f"{self.path}: the H.264 encoder (ffmpeg) stopped: {e}") from None
+
+    def close(self, ok: bool = True) -> None:
+        """Finish the file (``ok``) or stop ffmpeg at once (an error or a Ctrl-C: the file is discarded)."""
+        p, self._proc = self._proc, None
+        if p is None:
+            return
+        if not ok:
+            p.kill()
+        try:
+            p.stdin.close()
+        except OSError:
+            pass
+        code = p.wait()
+        if ok and code != 0:
+            raise RenderError(f"{self.path}: the H.264 encoder (ffmpeg) failed, exit code {code}")
+
+
 class VideoWriter:
     """``with VideoWriter(path, fps) as w: w.append(frame)``: the file appears, whole, when the block ends."""
 
@@ -85,17 +152,13 @@ class VideoWriter:
         except OSError as e:
             raise RenderError(f"{self.path}: cannot write there: {e.strerror or e}") from None
         if self.fmt == ".mp4":
-            import imageio.v2 as iio
-
-            self._writer = iio.get_writer(self._tmp, format="FFMPEG", mode="I", fps=self.fps, codec="libx264",
-                                          quality=7, pixelformat="yuv420p", macro_block_size=2,
-                                          ffmpeg_log_level="error")
+            self._writer = H264Pipe(self._tmp, self.fps)
         return self
 
     def append(self, frame: np.ndarray) -> None:
         frame = np.ascontiguousarray(frame, np.uint8)
         if self._writer is not None:
-            self._writer.append_data(frame)
+            self._writer.append(frame)
         else:
             self._gif.append(frame)
         self.frames += 1
@@ -103,7 +166,7 @@ class VideoWriter:
     def __exit__(self, exc_type, exc, tb) -> None:
         try:
             if self._writer is not None:
-                self._writer.close()
+                self._writer.close(ok=exc_type is None)
             if exc_type is None:
                 if self.frames == 0:
                     raise RenderError(f"{self.path}: no frames to write")

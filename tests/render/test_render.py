@@ -69,6 +69,8 @@ def test_track_camera_keeps_the_robot_in_the_picture(trot):
     assert all(k.sum() > 100 for k in masks) and np.ptp(cx) < W / 4
 
 
+# the test reads the MP4 back with imageio's reader, which starts ffmpeg with a preexec_fn (a fork(); cpgjax does not)
+@pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_gif_and_mp4_are_written_whole(trot, tmp_path, monkeypatch):
     import imageio.v3 as iio
 
@@ -85,6 +87,27 @@ def test_gif_and_mp4_are_written_whole(trot, tmp_path, monkeypatch):
         v = [f for f in r]
     assert len(v) == poses.frames and v[0].shape == (H, W, 3)
     assert sorted(os.listdir(tmp_path)) == ["walk.gif", "walk.mp4"]       # no temporary file left
+
+
+def test_an_mp4_is_encoded_without_a_fork_warning(trot, tmp_path, monkeypatch):
+    """ffmpeg is started without running Python in a fork() of this multithreaded process: JAX's "os.fork() was
+    called ... deadlock" RuntimeWarning, which a user can do nothing about, is never printed (cpgjax.render.video)."""
+    import warnings
+
+    m, c, poses = trot
+    monkeypatch.setattr(movie, "record_ours", lambda *a, **k: poses)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        render_video(m, c, str(tmp_path / "walk.mp4"), fps=8, size=(W + 1, H + 1), camera="fixed", progress=False)
+    assert [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)] == []
+    assert (tmp_path / "walk.mp4").stat().st_size > 1000
+
+
+def test_an_encoder_failure_is_a_named_error_and_leaves_no_file(tmp_path):
+    with pytest.raises(RenderError, match="a frame of shape"), video.VideoWriter(str(tmp_path / "w.mp4"), 8) as w:
+        w.append(np.zeros((H, W, 3), np.uint8))
+        w.append(np.zeros((H, W + 2, 3), np.uint8))
+    assert os.listdir(tmp_path) == []
 
 
 def test_both_engines_side_by_side(trot, tmp_path, monkeypatch):
