@@ -110,14 +110,16 @@ class Replay:
 
 
 def replay_settings(controls: list[Any], model_path: str, *, pipeline: str | None = None,
-                    time: float | None = None, terrain: str | None = None, use_time: bool = True) -> Replay:
+                    time: float | None = None, terrain: str | None = None,
+                    takes: tuple[str, ...] = ("pipeline", "time", "terrain")) -> Replay:
     """The pipeline, episode length and terrain to replay ``controls`` (:class:`cpgjax.io.ctl.Control`) with on the
     model file ``model_path``: each option given (``pipeline``, ``time``, ``terrain``), else the headers' (they
     must agree), else None.
 
     Refused (one line, naming the file and its header's line): a header that names other model files (compared by
-    name: models are copied around), or pipelines that the ``pipeline`` given is not one of.  ``use_time=False``:
-    the command's length is not an episode's (``follow``'s walk): the headers' time is neither used nor said.
+    name: models are copied around), or pipelines that the ``pipeline`` given is not one of.  ``takes``: the
+    settings the command takes from a header (``follow``'s length is a walk's, not an episode's; ``stability``
+    sets its own grounds): the others are neither used nor said.
     """
     controls = [c for c in controls if c.header]
     name = os.path.basename(os.fspath(model_path))
@@ -142,16 +144,16 @@ def replay_settings(controls: list[Any], model_path: str, *, pipeline: str | Non
         return next(iter(vals.values())) if len(set(vals.values())) == 1 else None
 
     parts, out = [], {}
-    hp = said("pipeline", pipeline)
+    hp = said("pipeline", pipeline) if "pipeline" in takes else None
     out["pipeline"] = pipeline or hp
     if pipeline is None and hp:
         parts.append(f"pipeline {hp}")
     its = "its" if len(controls) == 1 else "their"
-    ht = said("time", time) if use_time else None
+    ht = said("time", time) if "time" in takes else None
     out["time"] = time if time is not None else ht
     if ht is not None:
         parts.append(f"{ht:g} s" if time is None or time == ht else f"--time {time:g} instead of {its} {ht:g} s")
-    hg = said("terrain", terrain)
+    hg = said("terrain", terrain) if "terrain" in takes else None
     out["terrain"] = terrain if terrain is not None else (hg if hg != "matrix" else None)
     if hg is not None:
         parts.append(f"terrain {hg}" if terrain is None or terrain == hg else
@@ -170,10 +172,12 @@ def run_header(run: str, meta: dict, model: Any, controller: str, picked: str) -
     the run did not set them); ``controller``, the family's spec; ``picked``, how the controller was picked."""
     import json
 
+    if model is None:           # a problem without a robot (cpgjax.optim.analytic): no physics to say
+        return Header(controller=controller, run=run, picked=picked)
     cli = json.loads(meta.get("cli_problem_args") or "{}")
-    time = cli.get("time") or meta.get("time") or getattr(model, "time_max", None)
-    terrain = cli.get("terrain") or (model.terrain.spec if model is not None else None)
+    time = cli.get("time") or meta.get("time") or model.time_max
     path = meta.get("model_path")
     return Header(model=os.path.basename(str(path)) if path else None, pipeline=str(meta.get("pipeline") or "springs"),
-                  controller=controller, time=float(time) if time else None, terrain=terrain, run=run, picked=picked)
+                  controller=controller, time=float(time), terrain=cli.get("terrain") or model.terrain.spec, run=run,
+                  picked=picked)
 
