@@ -306,9 +306,9 @@ def cmd_best(args: argparse.Namespace) -> int:
 
         picked = (f"best of generation {gen} ({'robust' if scored[1] else 'thesis'} score {fit:.4g}, {scored[0]})"
                   if not args.validate else
-                  f"champion of a validation, {ch.score:.4g} over {v.episodes} fresh perturbed episodes (seed "
-                  f"{v.seed}), the best of the run's {len(ch.scores)} best; generation {gen} recorded {fit:.4g}, "
-                  f"{scored[0]}")
+                  f"champion of a validation: {ch.score:.4g} over {v.episodes} fresh perturbed "
+                  f"episode{'s' if v.episodes != 1 else ''} (seed {v.seed}), the highest of the run's "
+                  f"{len(ch.scores)} best; recorded {fit:.4g} at generation {gen} ({scored[0]})")
         header = run_header(args.run, run.meta, model, family.spec if family else "cpg", picked)
         if args.validate and args.pipeline not in (None, run.pipeline):
             header.pipeline += f", {args.pipeline}"
