@@ -29,7 +29,8 @@ def test_a_header_round_trips_as_comment_lines_before_the_fitness():
     text = format_ctl(np.zeros((2, 5)), 0.5, header=h)
     assert text.splitlines()[:7] == [
         "# model: quadruped.wl", "# pipeline: exact", "# controller: cpg", "# time: 5", "# terrain: flat",
-        "# run: runs/quickstart.h5", "# picked: best of generation 14 (robust score 0.186, mean of 4 perturbed episodes)"]
+        "# run: runs/quickstart.h5",
+        "# picked: best of generation 14 (robust score 0.186, mean of 4 perturbed episodes)"]
     c = parse_ctl(text, "q.ctl")
     assert c.header == h and c.header.lines["time"] == 4 and c.fitness == 0.5
     assert c.header.models == ("quadruped.wl",) and c.header.pipelines == ("exact",)
