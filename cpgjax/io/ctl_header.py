@@ -49,6 +49,11 @@ class Header:
         names = tuple(p.strip().lower() for p in (self.pipeline or "").split(",") if p.strip())
         return () if names == ("any",) else names
 
+    def setting(self, key: str) -> Any:
+        """What a replay takes from it: ``pipeline`` (the first of its pipelines), ``time``, ``terrain``; None: not
+        said (or any pipeline)."""
+        return (self.pipelines or (None,))[0] if key == "pipeline" else getattr(self, key)
+
     def __bool__(self) -> bool:
         return any(getattr(self, k) is not None for k in HEADER_KEYS)
 
@@ -135,8 +140,8 @@ def replay_settings(controls: list[Any], model_path: str, *, pipeline: str | Non
                                                                 "use the header's)")
 
     def said(key: str, given: Any) -> Any:
-        vals = {c.path: v for c in controls if (v := (c.header.pipelines[:1] or [None])[0] if key == "pipeline"
-                                                     else getattr(c.header, key)) is not None}
+        """The headers' ``key`` (None: none sets it); refused when they disagree and ``given`` does not settle it."""
+        vals = {c.path: c.header.setting(key) for c in controls if c.header.setting(key) is not None}
         if given is None and len(set(vals.values())) > 1:
             what = ", ".join(f"{k} {v:g} s" if key == "time" else f"{k} {v}" for k, v in vals.items())
             raise CpgjaxError(f"the controllers' headers disagree on the {key} ({what}): replay them separately"
