@@ -1,3 +1,7 @@
+# model: hexapod.wl
+# pipeline: any
+# controller: cpg
+# picked: written by hand after the thesis's Appendix A (no run)
 # The tripod gait of models/hexapod.wl, written by hand after the thesis's Appendix A (no evolution): one
 # 0.5 Hz sinusoid per joint, hip 0.4 rad and knee 0.3 rad in amplitude, each knee 3 pi / 4 after its hip (the
 # thesis's pi/4 with this model's knee sign), the tripods AR-CL-PR and AL-CR-PL half a cycle apart.

@@ -1,3 +1,10 @@
+# model: quadruped.wl
+# pipeline: springs, exact
+# controller: cpg
+# time: 10
+# terrain: flat
+# run: runs/gif-sweep/ga_n20_mu0.2_g0.01_p4_xoff/s1.h5
+# picked: best of the run (robust score 0.1417, mean of 4 perturbed episodes)
 # An evolved gait of models/quadruped.wl that walks (the README's "evolved" GIF), made on the springs pipeline by
 #   cpgjax sweep models/quadruped.wl --gamma 0.01 --pocket 4 --seeds 2 --generations 40 --evaluation robust --perturb fall_survival=on,bristle=3 --out runs/gif-sweep
 #   cpgjax best runs/gif-sweep/ga_n20_mu0.2_g0.01_p4_xoff/s1.h5 --ctl models/quadruped-robust.ctl

@@ -1,3 +1,7 @@
+# model: quadruped.wl, quadruped-stiff.wl
+# pipeline: any
+# controller: cpg
+# picked: written by hand (no run)
 # The hand-written trot of models/quadruped.wl (no evolution): one 0.5 Hz sinusoid per joint, the diagonal
 # legs in phase (AR with PL, AL with PR) and the two pairs half a cycle apart; hips -0.2 +- 0.3 sin(pi t) rad,
 # knees 0.4 + 0.4 sin(pi t + 2.07) rad, so that each foot swings forward while lifted.  Rows: HipAR, KneeAR,

@@ -27,8 +27,8 @@ def register(subparsers: Any) -> None:
                    help="the hand-written trot with N(0, 0.1) added to every gene (default 16)")
     c.add_argument("--perturb-ctl", help="controller to perturb (default models/quadruped-trot.ctl)")
     c.add_argument("--n", type=o.count, help="at most this many controllers")
-    o.time_option(c)
-    o.terrain_option(c)
+    o.time_option(c, of=o.CTL_OR_FILE)
+    o.terrain_option(c, of=o.CTL_OR_FILE)
     c.add_argument("--show", type=o.count0, default=0, help="which controller to plot (index, default 0)")
     c.add_argument("--no-mjx", action="store_true", help="skip MJX (slow to compile)")
     c.add_argument("--no-ceiling", action="store_true",
@@ -36,8 +36,7 @@ def register(subparsers: Any) -> None:
                         "engine has with itself: the ceiling)")
     o.seed_option(c)
     _variant_options(c)
-    o.pipeline_option(c, "the model file's Pipeline, else springs; our simulator's side only, MuJoCo's model does "
-                         "not depend on it")
+    o.pipeline_option(c, f"{o.CTL_PIPELINE}; our simulator's side only, MuJoCo's model does not depend on it")
     c.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="MuJoCo C's integration step (default: the export's, 2 ms; on rough ground use 0.00025, "
                         "where fast gaits' verdicts settle: docs/crosscheck.md); the ceiling runs it at half that")
@@ -126,9 +125,13 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     from cpgjax.io.wl import load_model
 
     o.check_output_dir(args.out)
+    from cpgjax.cli.simulate import header_settings
     from cpgjax.crosscheck.transfer import variant
 
-    model = variant(load_model(args.model, terrain=args.terrain, pipeline=args.pipeline), args.dt, args.joint_spring)
+    rp = header_settings([*(args.ctl or ()), *([args.perturb_ctl] if args.perturb_ctl else [])], args)
+    if rp.note:
+        print(f"header: {rp.note}")
+    model = variant(load_model(args.model, terrain=rp.terrain, pipeline=rp.pipeline), args.dt, args.joint_spring)
     here = os.path.dirname(os.path.abspath(args.model))
     trot = os.path.join(here, "quadruped-trot.ctl")
     base = args.perturb_ctl or (trot if os.path.exists(trot) and model.n_ctrl == 8 else None)
@@ -139,7 +142,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
         raise ValueError("no controllers: give --ctl, --controllers RUN.h5, --random N or --perturbed N")
     if args.n:
         coeffs, labels = coeffs[: args.n], labels[: args.n]
-    T = args.time or model.time_max
+    T = rp.time or model.time_max
     note = rough_step_note([model.terrain.spec], args.mujoco_dt)
     if note:
         print(note, file=sys.stderr)
@@ -150,6 +153,16 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     if args.out:
         print(f"\nwrote {args.out}/crosscheck.md, crosscheck.json, joints.png, cm_path.png")
     return 0
+
+
+def _ctl_not_run(path: str) -> str:
+    """Why ``transfer`` takes no `.ctl` file: it replays runs, on the settings they recorded; a header names its run."""
+    from cpgjax.io.ctl import read_ctl
+
+    run = read_ctl(path).header.run
+    return (f"{path}: transfer replays run files (RUN.h5), on the settings each recorded; "
+            + (f"its header names its run: cpgjax transfer {run}" if run else
+               "a controller alone: cpgjax crosscheck MODEL.wl --ctl " + path))
 
 
 def cmd_transfer(args: argparse.Namespace) -> int:
@@ -168,6 +181,9 @@ def cmd_transfer(args: argparse.Namespace) -> int:
                                  "...) in it")
             print(transfer.restate_text(path, rows))
         return 0
+    for p in args.runs:
+        if p.lower().endswith(".ctl"):
+            raise ValueError(_ctl_not_run(p))
     if args.out:
         o.check_output_dir(args.out)
     files = transfer.run_files(args.runs)

@@ -260,13 +260,15 @@ def cmd_best(args: argparse.Namespace) -> int:
     n_dof, harmonics = int(run.meta.get("n_dof", 0) or 0), int(run.meta.get("harmonics", -1))
     ncoef = 2 * harmonics + 1
     family = family_from_meta(run.meta)
-    policy, cpg_genes = None, genome
-    if family is not None:       # a closed-loop controller: the CPG's genes, then the policy's
+    policy, cpg_genes, model = None, genome, None
+    if run.meta.get("model_text"):
         from cpgjax.io.wl import parse_wl
         from cpgjax.sim.model import build_model
 
         model = build_model(parse_wl(str(run.meta.get("model_text", "")), str(run.meta.get("model_path", args.run))),
+                            terrain=json.loads(run.meta.get("cli_problem_args") or "{}").get("terrain"),
                             pipeline=run.pipeline)
+    if family is not None:       # a closed-loop controller: the CPG's genes, then the policy's
         cl = from_genomes(family, model, np.asarray(genome, np.float32)[None])
         cl = jax.tree.map(lambda a: np.asarray(a)[0], cl)
         policy, cpg_genes = PolicyTable(**table_fields(cl, model)), np.asarray(cl.coeffs).reshape(-1)
@@ -275,6 +277,13 @@ def cmd_best(args: argparse.Namespace) -> int:
     what = "champion" if args.validate else "best"
     print(f"{args.run}: {what} fitness {fit:.6f} at generation {gen}, individual {idx} "
           f"({run.kind}, {run.completed} generations, {run.pipeline} pipeline)")
+    scored = _scored_by(run.meta)
+    if scored[1]:
+        print(f"replay: {fit:.6f} is the robust evaluation's score, the {scored[0]}; a replay (cpgjax simulate) is "
+              "one unperturbed episode, so it scores otherwise")
+    else:
+        print(f"replay: the thesis evaluation scores {scored[0]}, as a replay (cpgjax simulate) does: it scores "
+              f"{fit:.6f} again")
     if harmonics >= 0 and n_dof * ncoef == cpg_genes.size:
         coeffs = np.asarray(cpg_genes, np.float64).reshape(n_dof, ncoef)
         names = ["c0"] + [f"{ab}{k}" for k in range(1, harmonics + 1) for ab in ("a", "b")]
@@ -293,9 +302,27 @@ def cmd_best(args: argparse.Namespace) -> int:
         d = os.path.dirname(args.ctl)
         if d:
             os.makedirs(d, exist_ok=True)
-        write_ctl(args.ctl, coeffs, fit, exact=not args.round, policy=policy)
+        from cpgjax.io.ctl import run_header
+
+        picked = (f"best of generation {gen} ({'robust' if scored[1] else 'thesis'} score {fit:.4g}, {scored[0]})"
+                  if not args.validate else
+                  f"champion of a validation: {ch.score:.4g} over {v.episodes} fresh perturbed "
+                  f"episode{'s' if v.episodes != 1 else ''} (seed {v.seed}), the highest of the run's "
+                  f"{len(ch.scores)} best; recorded {fit:.4g} at generation {gen} ({scored[0]})")
+        header = run_header(args.run, run.meta, model, family.spec if family else "cpg", picked)
+        if args.validate and args.pipeline not in (None, run.pipeline):
+            header.pipeline += f", {args.pipeline}"
+        write_ctl(args.ctl, coeffs, fit, exact=not args.round, policy=policy, header=header)
         print(f"wrote {args.ctl}")
     return 0
+
+
+def _scored_by(meta: dict[str, Any]) -> tuple[str, bool]:
+    """How a run scored each controller, in words (``mean of 4 perturbed episodes``), and whether robustly."""
+    if meta.get("evaluation") == "robust":
+        r = int(meta.get("replicas") or 1)
+        return f"mean of {r} perturbed episode{'s' if r != 1 else ''}", True
+    return "one unperturbed episode", False
 
 
 def cmd_plot(args: argparse.Namespace) -> int:

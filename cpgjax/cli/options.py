@@ -292,6 +292,10 @@ def pipeline_option(p: argparse.ArgumentParser, default: str = "the model file's
 
 
 RUN_PIPELINE = "the run's, as it recorded"
+# a command that replays .ctl controllers takes its pipeline and episode length from their headers
+# (cpgjax.io.ctl_header.replay_settings; docs/ctl-format.md)
+CTL_OR_FILE = "the --ctl header's, else the model file's"
+CTL_PIPELINE = f"{CTL_OR_FILE} Pipeline, else springs"
 
 
 # --- outputs --------------------------------------------------------------------------------------

@@ -37,8 +37,8 @@ def register(subparsers: Any) -> None:
     r.add_argument("--cell", metavar="CELL",
                    help="a repertoire (cpgjax repertoire): the elite of this cell: best, an index, or a descriptor "
                         "(comma-separated values: the cell it falls in)")
-    o.time_option(r, of=o.RUN_OR_FILE)
-    o.terrain_option(r, of=o.RUN_OR_FILE)
+    o.time_option(r, of="the run's, or the --ctl header's, else the model file's")
+    o.terrain_option(r, of="the run's, or the --ctl header's, else the model file's")
     r.add_argument("--out", help="output .mp4 or .gif (default: MODEL's name with .mp4, in the current folder)")
     r.add_argument("--fps", type=fps, default=30.0, help="frames per second of the video and of the recording "
                                                           "(default 30)")
@@ -50,7 +50,7 @@ def register(subparsers: Any) -> None:
     r.add_argument("--engine", choices=("ours", "mujoco", "both"), default="ours",
                    help="ours: our simulator; mujoco: the same controller in MuJoCo C; both: side by side "
                         "(default ours)")
-    o.pipeline_option(r, "the model file's Pipeline, else springs; for a run file, the run's, as it recorded")
+    o.pipeline_option(r, f"{o.CTL_PIPELINE}; for a run file, the run's, as it recorded")
     o.quiet_option(r)
     r.set_defaults(func=cmd_render)
 
@@ -90,14 +90,17 @@ def cmd_render(args: argparse.Namespace) -> int:
         T = args.time or T
         title = f"{os.path.basename(args.model)}: {what}"
     else:
-        from cpgjax.cli.simulate import load_controller
+        from cpgjax.cli.simulate import header_settings, load_controller
         from cpgjax.io.wl import load_model
 
         if args.generation is not None or args.cell is not None:
             raise ValueError("--generation and --cell are for a run file (RUN.h5)")
-        model = load_model(args.model, terrain=args.terrain, pipeline=args.pipeline)
+        rp = header_settings([args.ctl] if args.ctl else [], args)
+        model = load_model(args.model, terrain=rp.terrain, pipeline=rp.pipeline)
         coeffs, name = load_controller(args.ctl, model)
-        T = args.time or model.time_max
+        T = rp.time or model.time_max
+        if rp.note:
+            print(f"header: {rp.note}", flush=True)
         title = f"{os.path.basename(args.model)} + {os.path.basename(name)}" if args.ctl else None
     s = render_video(model, coeffs, out, time=T, fps=args.fps, size=args.size, camera=args.camera,
                      engine=args.engine, title=title, progress=not args.quiet)

@@ -184,7 +184,7 @@ def register(subparsers: Any) -> None:
                    default=None, metavar="RAD/S",
                    help=f"--ctl: the command's range, that of the evolution's --perturb command=R "
                         f"(default {LIMIT:g} rad/s)")
-    o.pipeline_option(p)
+    o.pipeline_option(p, f"{o.CTL_PIPELINE}; --ctl only")
     p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk (--ctl: one controller, one path)")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
@@ -346,8 +346,13 @@ def _follow_ctl(args: argparse.Namespace) -> int:
     for n in ("cycles", "lookahead", "safe_tilt"):
         if getattr(args, n) is not None:
             raise ValueError(f"--{n.replace('_', '-')}: with --repertoire only")
+    from cpgjax.cli.simulate import header_settings
+
+    rp = header_settings(args.ctl, args, takes=("pipeline",))     # --time is the walk's, not an episode's
+    if rp.note:
+        print(f"header: {rp.note}", flush=True)
     r = steer.walks(args.model, args.ctl, args.path, time=args.time or steer.TIME, gain=args.gain or steer.GAIN,
-                    limit=args.limit or steer.LIMIT, pipeline=args.pipeline, video=args.video)
+                    limit=args.limit or steer.LIMIT, pipeline=rp.pipeline, video=args.video)
     for w in r:
         state = ("finished" if w["finished"] else f"fell at {w['fell']:.1f} s" if w["fell"] is not None
                  else "did not finish")

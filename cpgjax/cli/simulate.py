@@ -16,11 +16,11 @@ def register(subparsers: Any) -> None:
     s = subparsers.add_parser("simulate", help="run one episode of a model (and a .ctl controller)")
     o.model_argument(s)
     s.add_argument("--ctl", help="controller (.ctl); without it every servo holds angle 0")
-    o.time_option(s)
-    o.terrain_option(s)
+    o.time_option(s, of=o.CTL_OR_FILE)
+    o.terrain_option(s, of=o.CTL_OR_FILE)
     s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
     o.dt_option(s)
-    o.pipeline_option(s)
+    o.pipeline_option(s, o.CTL_PIPELINE)
     s.add_argument("--gravity", type=o.finite, help="gravity [m/s^2] (default: the file's, 9.81)")
     o.delta_option(s)
     s.set_defaults(func=cmd_simulate)
@@ -32,11 +32,11 @@ def register(subparsers: Any) -> None:
     r.add_argument("--n", type=o.count, default=64, help="replays per jitter (default 64)")
     r.add_argument("--jitter", type=o.list_of(o.nonneg, "expected numbers >= 0, e.g. 1e-6,1e-4"),
                    default=[1e-6, 1e-4, 1e-2], help="standard deviations of the gene offsets (default 1e-6,1e-4,1e-2)")
-    o.time_option(r)
-    o.terrain_option(r)
+    o.time_option(r, of=o.CTL_OR_FILE)
+    o.terrain_option(r, of=o.CTL_OR_FILE)
     o.delta_option(r)
     o.seed_option(r, what="random seed of the offsets")
-    o.pipeline_option(r)
+    o.pipeline_option(r, o.CTL_PIPELINE)
     r.set_defaults(func=cmd_robustness)
 
 
@@ -52,17 +52,31 @@ def load_controller(ctl: str | None, model):
     return from_control(c, model), ctl
 
 
+def header_settings(ctls: list[str], args: argparse.Namespace, takes: tuple[str, ...] = ("pipeline", "time", "terrain"),
+                    model: str | None = None):
+    """The :class:`~cpgjax.io.ctl.Replay` settings of the controllers ``ctls`` on ``model`` (``args.model``): the
+    options ``takes`` names, given, else their headers' (a header made for another model, or a contradicted
+    pipeline, is refused: :func:`cpgjax.io.ctl.replay_settings`)."""
+    from cpgjax.io.ctl import read_ctl, replay_settings
+
+    given = {k: getattr(args, k, None) if k in takes else None for k in ("pipeline", "time", "terrain")}
+    return replay_settings([read_ctl(c) for c in ctls], model or args.model, **given, takes=takes)
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     from cpgjax.episode.batch import simulate
     from cpgjax.io.logs import pose_rows, write_log
     from cpgjax.io.wl import load_model
 
     o.check_output_dir(args.log, "--log")
-    model = load_model(args.model, dt=args.dt, terrain=args.terrain, pipeline=args.pipeline)
+    rp = header_settings([args.ctl] if args.ctl else [], args)
+    model = load_model(args.model, dt=args.dt, terrain=rp.terrain, pipeline=rp.pipeline)
     if args.gravity is not None:
         model = model.replace(gravity=args.gravity)
     coeffs, ctl_name = load_controller(args.ctl, model)
-    T = model.time_max if args.time is None else args.time
+    T = model.time_max if rp.time is None else rp.time
+    if rp.note:
+        print(f"header    {rp.note}")
     r = simulate(model, coeffs, time=T, delta=args.delta, record=bool(args.log))
     body = model.body_names[model.track]
     print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, {model.pipeline} pipeline, "
@@ -98,10 +112,13 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     from cpgjax.episode.batch import simulate
     from cpgjax.io.wl import load_model
 
-    model = load_model(args.model, terrain=args.terrain, pipeline=args.pipeline)
+    rp = header_settings([args.ctl], args)
+    model = load_model(args.model, terrain=rp.terrain, pipeline=rp.pipeline)
     from cpgjax.episode.policy import from_genomes, is_closed, to_genome
 
     coeffs, name = load_controller(args.ctl, model)
+    if rp.note:
+        print(f"header: {rp.note}")
     family = coeffs.family if is_closed(coeffs) else None
     genome = to_genome(coeffs, model) if family else np.asarray(coeffs).reshape(-1)
     rng = np.random.default_rng(args.seed)
@@ -112,7 +129,7 @@ def cmd_robustness(args: argparse.Namespace) -> int:
         ctrl = from_genomes(family, model, C.astype(np.float32))
         if family:   # replay 0: the weights as read (a gene times its scale may differ from them in the last bit)
             ctrl.weights[0] = coeffs.weights
-        r = simulate(model, ctrl, time=args.time, delta=args.delta)
+        r = simulate(model, ctrl, time=rp.time, delta=args.delta)
         f = r["fitness"]
         rows.append((eps, f[0], f.mean(), f.std(), f.min(), f.max(), int(r["fallen"].sum()),
                      int(r["diverged"].sum())))

@@ -67,6 +67,25 @@ def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", os.path.splitext(os.path.basename(name))[0]) or "ctl"
 
 
+def _pick_header(name: str, p: dict, pipeline: str | None):
+    """The `.ctl` header of the population study's ``name`` pick ``p`` (its run's settings; the study's pipeline
+    added when it is another)."""
+    from cpgjax.episode.policy import family_from_meta
+    from cpgjax.experiments.stability import _model_of
+    from cpgjax.io.ctl import run_header
+    from cpgjax.io.results import read_run
+
+    run = read_run(p["run"])
+    family = family_from_meta(run.meta)
+    how = "highest" if name == "stable" else "lowest"
+    header = run_header(p["run"], run.meta, _model_of(run)[0], family.spec if family else "cpg",
+                        f"the {name} one of a population study (cpgjax stability): among the walkers, the {how} mean "
+                        f"S on flat ground ({p['S_flat']:.4g}); GA fitness {p['ga_fitness']:.4g}")
+    if pipeline and pipeline not in header.pipelines:
+        header.pipeline += f", {pipeline}"
+    return header
+
+
 def cmd_stability(args: argparse.Namespace) -> int:
     o.check_output_dir(args.out)
     wl = [p for p in args.inputs if p.lower().endswith(".wl")]
@@ -164,7 +183,8 @@ def _population(args) -> int:
     for name, p in study.picks.items():     # the thesis's stable and unstable controller, for the figures
         path = os.path.join(args.out, f"{name}.ctl")
         policy = PolicyTable(**p["policy"]) if p.get("policy") else None    # a closed-loop controller's
-        write_ctl(path, p["coeffs"], p["ga_fitness"], exact=True, policy=policy)
+        write_ctl(path, p["coeffs"], p["ga_fitness"], exact=True, policy=policy,
+                  header=_pick_header(name, p, study.config.get("pipeline")))
         summary["picks"][name] = {"ctl": path, **{k: v for k, v in p.items() if k not in ("coeffs", "policy")}}
     with open(os.path.join(args.out, "population.json"), "w") as f:
         json.dump(summary, f, indent=1)

@@ -51,7 +51,7 @@ def register(subparsers: Any) -> None:
                    help="comma-separated time steps (default 1e-4,2e-4,3e-4,5e-4,7e-4,1e-3,1.5e-3)")
     o.time_option(d, 10.0)
     d.add_argument("--out", help="write the table as markdown here too")
-    o.pipeline_option(d)
+    o.pipeline_option(d, o.CTL_PIPELINE)
     d.set_defaults(func=cmd_study_dt)
 
     f = subparsers.add_parser("study-friction", help="the friction bristle: steadiness of the score vs agreement "
@@ -72,7 +72,7 @@ def register(subparsers: Any) -> None:
     o.time_option(f, 10.0)
     f.add_argument("--out", help="write the table as markdown here too")
     f.add_argument("--json", action="store_true", help="print one JSON object (the rows) instead of the table")
-    o.pipeline_option(f, "the model file's Pipeline, else springs; our simulator's side only")
+    o.pipeline_option(f, f"{o.CTL_PIPELINE}; our simulator's side only")
     f.set_defaults(func=cmd_study_friction)
 
 
@@ -138,11 +138,22 @@ def _table_a1(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pipeline(args: argparse.Namespace) -> str | None:
+    """--pipeline, else the --ctl header's (a header made for another model, or contradicted, is refused); the
+    study's --time is its own."""
+    from cpgjax.cli.simulate import header_settings
+
+    rp = header_settings([args.ctl], args, takes=("pipeline",))
+    if rp.note and not getattr(args, "json", False):
+        print(f"header: {rp.note}", flush=True)
+    return rp.pipeline
+
+
 def cmd_study_dt(args: argparse.Namespace) -> int:
     from cpgjax.experiments.studies import timestep_study
 
     o.check_output_file(args.out)
-    timestep_study(args.model, args.ctl, list(args.dts), time_s=args.time, out=args.out, pipeline=args.pipeline)
+    timestep_study(args.model, args.ctl, list(args.dts), time_s=args.time, out=args.out, pipeline=_pipeline(args))
     return 0
 
 
@@ -156,7 +167,7 @@ def cmd_study_friction(args: argparse.Namespace) -> int:
                                                    f"ratio {r['ratio_median']:.2f}, rho {r['rho']:+.2f}", flush=True))
     rows = friction_study(args.model, args.ctl, args.springs, runs=args.runs, replays=args.replays,
                           jitter=args.jitter, n_random=args.random, n_perturbed=args.perturbed, time_s=args.time,
-                          progress=show, pipeline=args.pipeline)
+                          progress=show, pipeline=_pipeline(args))
     text = friction_table(rows)
     if args.out:
         with open(args.out, "w") as fh:

@@ -23,6 +23,18 @@ A closed-loop controller (:mod:`cpgjax.episode.policy`) adds its policy after th
 (:class:`PolicyTable`; the words are case-insensitive).  A file without a ``Policy`` line is the thesis's
 open-loop CPG.
 
+Before the fitness, ``# key: value`` comment lines are the controller's provenance, its :class:`Header`::
+
+    # model: quadruped.wl                 <- the model file(s) it was made for, by name
+    # pipeline: exact                     <- the pipeline(s) it runs on, the first by default (or: any)
+    # controller: cpg                     <- the controller family
+    # time: 5                             <- the episode length [s] it was scored over
+    # terrain: flat                       <- the ground it was scored on
+    # run: runs/quickstart.h5             <- the run it came from
+    # picked: best of generation 14 (...) <- how it was picked
+
+Every key is optional; other comment lines are prose, and a file without a header reads as before.
+
 Errors raise :class:`cpgjax.errors.DescriptionError` (``path:line: message``).
 """
 
@@ -31,16 +43,17 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from cpgjax.io.ctl_header import HEADER_KEYS, Header, Replay, header_line, replay_settings, run_header
 from cpgjax.io.textfile import read_text
 from cpgjax.sim.description import DescriptionError
 
-__all__ = ["Control", "PolicyTable", "parse_ctl", "read_ctl", "format_ctl", "write_ctl", "genome_to_coeffs",
-           "coeffs_to_genome"]
+__all__ = ["Control", "Header", "HEADER_KEYS", "PolicyTable", "Replay", "parse_ctl", "read_ctl", "format_ctl",
+           "write_ctl", "replay_settings", "run_header", "genome_to_coeffs", "coeffs_to_genome"]
 
 _NUM_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z")
 
@@ -69,12 +82,14 @@ class Control:
     coeffs: ``[n_dof, 2K+1]`` float64, row ``i`` = ``c0 a1 b1 ... aK bK`` of controlled DOF ``i``.
     path: where it was read from (``"<string>"`` for text).
     policy: the policy of a closed-loop controller (None: the thesis's open-loop CPG).
+    header: its provenance (:class:`Header`; empty for a file without one).
     """
 
     fitness: float
     coeffs: np.ndarray
     path: str = "<string>"
     policy: PolicyTable | None = None
+    header: Header = field(default_factory=Header)
 
     @property
     def n_dof(self) -> int:
@@ -117,10 +132,13 @@ def parse_ctl(text: str, path: str = "<string>", n_dof: int | None = None,
     """
     rows: list[tuple[int, list[float]]] = []
     policy_lines: list[tuple[int, list[str]]] = []
+    header = Header()
     last_line = 1
     for n, raw in enumerate(text.removeprefix("\ufeff").splitlines(), start=1):
         toks = raw.split("#", 1)[0].split()
         if not toks:
+            if not rows:
+                header_line(header, raw, path, n)
             continue
         last_line = n
         if policy_lines or toks[0].lower() == "policy":
@@ -153,7 +171,13 @@ def parse_ctl(text: str, path: str = "<string>", n_dof: int | None = None,
                                            f"line{'s' if len(dofs) != 1 else ''}")
     coeffs = np.array([vals for _, vals in dofs], dtype=np.float64)
     policy = _parse_policy(policy_lines, path) if policy_lines else None
-    return Control(fitness=float(fit[0]), coeffs=coeffs, path=path, policy=policy)
+    if header.controller is not None:
+        family = header.controller.split(":", 1)[0].strip().lower()
+        if family != (policy.name if policy else "cpg"):
+            held = f"a 'Policy {policy.name}' controller" if policy else "an open-loop CPG (no Policy line)"
+            raise DescriptionError(path, header.lines["controller"], f"its header says controller "
+                                                                     f"{header.controller}, but the file holds {held}")
+    return Control(fitness=float(fit[0]), coeffs=coeffs, path=path, policy=policy, header=header)
 
 
 _GROUP_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -229,14 +253,15 @@ def _exact(v: float) -> str:
     return np.format_float_positional(np.float32(v), unique=True, trim="0") if v != 0 else "0.0"
 
 
-def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False, policy: PolicyTable | None = None) -> str:
+def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False, policy: PolicyTable | None = None,
+               header: Header | None = None) -> str:
     """The `.ctl` text: numbers separated by two spaces, one DOF per line (thesis example).
 
     The fitness is written ``%.6f``; the coefficients too by default (the thesis's 6 decimals).
     ``exact=True`` (what ``cpgjax best --ctl`` writes unless ``--round``) writes each
     coefficient with as many digits as it takes to read back the same float32: evolved gaits
     can be chaotic, and a controller rounded to 6 decimals may walk differently from the one
-    the GA scored (docs/evolution.md).
+    the GA scored (docs/evolution.md).  ``header``: the provenance lines written first (:class:`Header`).
     """
     c = np.asarray(coeffs, dtype=np.float64)
     if c.ndim != 2 or c.shape[1] % 2 == 0:
@@ -244,7 +269,7 @@ def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False, policy: P
     if not (np.all(np.isfinite(c)) and math.isfinite(float(fitness))):
         raise ValueError("coefficients and fitness must be finite to be written to a .ctl file")
     fmt = _exact if exact else _f6
-    lines = [_f6(fitness)] + ["  ".join(fmt(v) for v in row) for row in c]
+    lines = (header.text() if header else []) + [_f6(fitness)] + ["  ".join(fmt(v) for v in row) for row in c]
     if policy is not None:
         w = np.asarray(policy.weights, np.float64)
         n_in, n_out = sum(n for _, n in policy.inputs), sum(n for _, n in policy.outputs)
@@ -259,9 +284,9 @@ def format_ctl(coeffs: Any, fitness: float = 0.0, exact: bool = False, policy: P
 
 
 def write_ctl(path: str | os.PathLike[str], coeffs: Any, fitness: float = 0.0, exact: bool = False,
-              policy: PolicyTable | None = None) -> None:
+              policy: PolicyTable | None = None, header: Header | None = None) -> None:
     """Write a `.ctl` file (see :func:`format_ctl`); 6 decimals as in the thesis, or ``exact`` float32 digits."""
-    text = format_ctl(coeffs, fitness, exact=exact, policy=policy)
+    text = format_ctl(coeffs, fitness, exact=exact, policy=policy, header=header)
     with open(os.fspath(path), "w", encoding="utf-8") as f:
         f.write(text)
 
