@@ -65,7 +65,8 @@ def walk(model, controller, paths: list[np.ndarray], *, time: float, gain: float
          reach: float = REACH, timestep: float | None = None) -> dict:
     """Robot i of ``controller`` (a :class:`~cpgjax.episode.policy.ClosedLoop` of N, robots first) walks the
     waypoints ``paths[i]`` in MuJoCo C (step ``timestep``, None: the export's) for at most ``time`` s (see the module
-    docstring).  Returns the log samples: ``t`` [S], and per robot ``xy`` [N, S, 2] (the CM), ``up`` [N, S], the next
+    docstring).  Returns the log samples: ``t`` [S], and per robot (:func:`pose`) ``psi`` [N, S], ``xy`` [N, S, 2],
+    ``up`` [N, S], the next
     waypoint ``waypoint`` [N, S] and ``command`` [N, S] (of the sample's last step; at t = 0 the first step's), and
     ``dt`` (MuJoCo's step)."""
     mj = load(model) if timestep is None else load(model, timestep=timestep)
@@ -74,7 +75,8 @@ def walk(model, controller, paths: list[np.ndarray], *, time: float, gain: float
     outer = max(1, int(math.ceil(round(time / dt, 6) / inner)))
     fol = Follower(paths, gain, limit, reach)
     psi0, xy0, _ = pose(model, mj, initial_qpos(model, mj)[None])
-    ks, cs = [fol.k.copy()], [fol.command(psi0, xy0)]         # the command at t = 0 (ours: the first step's)
+    c0 = fol.command(psi0, xy0)                                 # the command at t = 0 (ours: the first step's)
+    ks, cs = [fol.k.copy()], [c0]
     settled = np.zeros(len(paths), bool)
     cos_fall = math.cos(FALL_TILT)
 
@@ -91,6 +93,6 @@ def walk(model, controller, paths: list[np.ndarray], *, time: float, gain: float
 
     _, qpos, _ = mujoco_closed_run(model, controller, time=inner * outer * dt, mj=mj, steer=steer)
     qpos = qpos[:, ::inner]
-    _, xy, up = pose(model, mj, qpos)
-    return {"t": np.arange(qpos.shape[1]) * inner * dt, "xy": xy, "up": up,
+    psi, xy, up = pose(model, mj, qpos)
+    return {"t": np.arange(qpos.shape[1]) * inner * dt, "psi": psi, "xy": xy, "up": up,
             "waypoint": np.stack(ks, 1)[:, ::inner], "command": np.stack(cs, 1)[:, ::inner], "dt": dt}
