@@ -87,12 +87,12 @@ def walk(model, controller, paths: list[np.ndarray], *, time: float, gain: float
             if settled.all():
                 return None
         c = fol.command(psi, xy)
-        ks.append(fol.k.copy())
-        cs.append(c)
+        if (s + 1) % inner == 0:      # the last step before a log sample: the sample's waypoint and command
+            ks.append(fol.k.copy())
+            cs.append(c)
         return c
 
     _, qpos, _ = mujoco_closed_run(model, controller, time=inner * outer * dt, mj=mj, steer=steer)
-    qpos = qpos[:, ::inner]
-    psi, xy, up = pose(model, mj, qpos)
-    return {"t": np.arange(qpos.shape[1]) * inner * dt, "psi": psi, "xy": xy, "up": up,
-            "waypoint": np.stack(ks, 1)[:, ::inner], "command": np.stack(cs, 1)[:, ::inner], "dt": dt}
+    psi, xy, up = pose(model, mj, qpos[:, ::inner])
+    return {"t": np.arange(len(ks)) * inner * dt, "psi": psi, "xy": xy, "up": up,
+            "waypoint": np.stack(ks, 1), "command": np.stack(cs, 1), "dt": dt}
