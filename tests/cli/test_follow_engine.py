@@ -84,3 +84,18 @@ def test_both_engines_walk_each_path_side_by_side(tmp_path, capsys):
     ours, both = json.loads((tmp_path / "ours.json").read_text()), json.loads((tmp_path / "both.json").read_text())
     assert [x["engine"] for x in both] == ["ours", "mujoco", "ours", "mujoco"]
     assert [{k: v for k, v in x.items() if k != "engine"} for x in both[::2]] == ours
+
+
+def test_on_rough_ground_mujocos_default_step_is_flagged(tmp_path, capsys):
+    """The model's own rough field in MuJoCo C at the export's 2 ms: the note that names 0.00025 s, as `transfer`'s;
+    given a step, no note."""
+    from pathlib import Path
+
+    wl = tmp_path / "rough.wl"
+    wl.write_text(Path(MODEL).read_text().replace("Terrain       flat", "Terrain       rough 0.02"))
+    ctl = _ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias")
+    for dt, noted in ((None, True), ("0.001", False)):
+        rc = main(["follow", str(wl), "--ctl", ctl, "--path", "line:0.1", "--time", "0.1", "--engine", "mujoco",
+                   *(["--mujoco-dt", dt] if dt else [])])
+        out = capsys.readouterr()
+        assert rc == 0 and ("--mujoco-dt 0.00025" in out.err) == noted and "[MuJoCo C]: finished in 0.0 s" in out.out
