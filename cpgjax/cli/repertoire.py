@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import os
+import sys
 from typing import Any
 
 from cpgjax.cli import options as o
@@ -185,6 +186,13 @@ def register(subparsers: Any) -> None:
                    help=f"--ctl: the command's range, that of the evolution's --perturb command=R "
                         f"(default {LIMIT:g} rad/s)")
     o.pipeline_option(p, f"{o.CTL_PIPELINE}; --ctl only")
+    p.add_argument("--engine", choices=("ours", "mujoco", "both"), default=None,
+                   help="--ctl: walk in our simulator (default), in MuJoCo C (the robot: the policy reads MuJoCo's "
+                        "sensors, the command is set every MuJoCo step from MuJoCo's own pose by the same law), or "
+                        "in both, each walk's rows side by side")
+    p.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
+                   help="--engine mujoco|both: MuJoCo C's integration step (default: the export's, 2 ms; on rough "
+                        "ground use 0.00025, as for transfer: docs/crosscheck.md)")
     p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk (--ctl: one controller, one path)")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
@@ -322,6 +330,10 @@ def cmd_follow(args: argparse.Namespace) -> int:
     if ctl_only:
         raise ValueError(f"{', '.join(ctl_only)}: with --ctl only (a repertoire's gaits run for whole cycles, on its "
                          "pipeline)")
+    mj_only = [f"--{n.replace('_', '-')}" for n in ("engine", "mujoco_dt") if getattr(args, n) is not None]
+    if mj_only:
+        raise ValueError(f"{', '.join(mj_only)}: with --ctl only (a repertoire's walk is its look-ahead's "
+                         "simulation, in our simulator)")
     if len(args.path) > 1:
         raise ValueError("--path: a repertoire walks one path at a time")
     args.path = args.path[0]
@@ -346,20 +358,36 @@ def _follow_ctl(args: argparse.Namespace) -> int:
     for n in ("cycles", "lookahead", "safe_tilt"):
         if getattr(args, n) is not None:
             raise ValueError(f"--{n.replace('_', '-')}: with --repertoire only")
+    engine = args.engine or "ours"
+    if args.mujoco_dt is not None and engine == "ours":
+        raise ValueError("--mujoco-dt: with --engine mujoco or both (MuJoCo C's step)")
     from cpgjax.cli.simulate import header_settings
 
     rp = header_settings(args.ctl, args, takes=("pipeline",))     # --time is the walk's, not an episode's
     if rp.note:
         print(f"header: {rp.note}", flush=True)
+    if engine != "ours":
+        from cpgjax.cli.crosscheck import rough_step_note
+        from cpgjax.io.wl import load_model
+
+        note = rough_step_note([load_model(args.model).terrain.spec], args.mujoco_dt)
+        if note:
+            print(note, file=sys.stderr)
     r = steer.walks(args.model, args.ctl, args.path, time=args.time or steer.TIME, gain=args.gain or steer.GAIN,
-                    limit=args.limit or steer.LIMIT, pipeline=rp.pipeline, video=args.video)
+                    limit=args.limit or steer.LIMIT, pipeline=rp.pipeline, video=args.video, engine=engine,
+                    mujoco_dt=args.mujoco_dt)
+    names = {"ours": " [ours]:     ", "mujoco": " [MuJoCo C]: "}     # the two engines' rows aligned
     for w in r:
         state = ("finished" if w["finished"] else f"fell at {w['fell']:.1f} s" if w["fell"] is not None
                  else "did not finish")
-        print(f"{w['ctl']} {w['path']}: {state}" + (f" in {w['time']:.1f} s" if w["finished"] else "")
+        label = names[w["engine"]] if "engine" in w else ": "
+        print(f"{w['ctl']} {w['path']}{label}{state}" + (f" in {w['time']:.1f} s" if w["finished"] else "")
               + f", mean distance from the path {w['mean_error']:.3f} m (largest {w['max_error']:.3f} m), "
                 f"waypoints {w['reached']} of {w['waypoints']}, largest tilt {w['tilt_max']:.2f} rad")
-    print(f"{sum(w['finished'] for w in r)} of {len(r)} walks finished without a fall")
+    for e in ("ours", "mujoco") if engine == "both" else (engine,):
+        ws = [w for w in r if w.get("engine", "ours") == e]
+        where = "" if engine == "ours" else " in our simulator" if e == "ours" else " in MuJoCo C"
+        print(f"{sum(w['finished'] for w in ws)} of {len(ws)} walks finished without a fall{where}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)

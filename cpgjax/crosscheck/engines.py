@@ -342,12 +342,14 @@ def _root_dof(model, mj) -> int:
 
 
 def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_DELTA,
-                      timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False):
+                      timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False, steer=None):
     """Roll out N closed-loop controllers (a :class:`~cpgjax.episode.policy.ClosedLoop`, robots first) in MuJoCo C,
     one step at a time: each step the observation is computed from MuJoCo's state (:func:`mujoco_observe`), the
     policy acts on it (numpy, the formulas of :mod:`cpgjax.episode.policy`) and the servo targets go to the position
     actuators as in :func:`controls`.  Returns (metrics, qpos [N, S, nq], wall); with ``record`` also the
-    observations [N, S - 1, n] (the one each step read, from t = 0).
+    observations [N, S - 1, n] (the one each step read, from t = 0).  ``steer``: ``steer(step, datas)`` gives, before
+    every step, the command [N] the policy reads, computed from MuJoCo's state (:mod:`cpgjax.crosscheck.follow`),
+    instead of the controller's constant one; None ends the episode there (qpos [N, step + 1, nq]).
     """
     import mujoco
 
@@ -380,6 +382,11 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     w0 = 2 * np.pi * f0
     t0 = _time.perf_counter()
     for s in range(nstep):
+        if steer is not None:
+            cmd = steer(s, datas)
+            if cmd is None:
+                qpos = qpos[:, : s + 1]
+                break
         tau = s * dt + phase_d                                      # [N]
         ang = w0 * k * tau[None]                                    # [K, N]
         sn, cs = np.sin(ang), np.cos(ang)

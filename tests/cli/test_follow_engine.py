@@ -1,0 +1,101 @@
+"""`cpgjax follow --ctl --engine ours|mujoco|both`: the walk in MuJoCo C, its table beside ours, and its bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cpgjax.cli import main
+
+MODEL = "models/quadruped.wl"
+
+
+def _ctl(path, groups: str, w: float = 0.0) -> str:
+    """A closed-loop `.ctl` on the trot's CPG reading ``groups``; ``w``: offsets and modulations per unit of the
+    command (the third input), else a policy of zeros."""
+    from cpgjax.episode import policy as pol
+    from cpgjax.io.ctl import PolicyTable, read_ctl, write_ctl
+    from cpgjax.io.wl import load_model
+
+    m = load_model(MODEL)
+    fam = pol.parse_controller(groups)
+    coeffs = read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs
+    W = np.zeros((fam.n_out(m), fam.n_in(m)))
+    W[:, min(2, fam.n_in(m) - 1)] = w * np.linspace(-0.5, 0.5, fam.n_out(m))
+    c = pol.ClosedLoop(fam, coeffs, W.astype(np.float32), np.zeros((), np.float32))
+    write_ctl(path, coeffs, policy=PolicyTable(**pol.table_fields(c, m)), exact=True)
+    return str(path)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--ctl", "models/quadruped-trot.ctl", "--engine", "mujoco"],
+     "a controller that reads the commanded turning rate is needed"),
+    (["--ctl", "BLIND", "--engine", "both"], "a controller that reads the commanded turning rate is needed"),
+    (["--ctl", "a.ctl", "--engine", "warp"], "argument --engine: invalid choice: 'warp'"),
+    (["--ctl", "a.ctl", "--mujoco-dt", "0.001"], "--mujoco-dt: with --engine mujoco or both"),
+    (["--ctl", "a.ctl", "--engine", "mujoco", "--mujoco-dt", "0"], "argument --mujoco-dt"),
+    (["--ctl", "a.ctl", "--engine", "mujoco", "--video", "VIDEO"], "--video draws our simulator's walk"),
+    (["--repertoire", "r.h5", "--engine", "mujoco"], "--engine: with --ctl only"),
+    (["--repertoire", "r.h5", "--mujoco-dt", "0.001"], "--mujoco-dt: with --ctl only"),
+])
+def test_bad_input_is_one_line_and_writes_nothing(argv, message, tmp_path, capsys):
+    blind = _ctl(tmp_path / "blind.ctl", "pmtg:tilt+contact+bias")      # a closed loop that reads no command
+    argv = [blind if a == "BLIND" else str(tmp_path / "v.mp4") if a == "VIDEO" else a for a in argv]
+    rc = main(["follow", MODEL, *argv, "--path", "line:1", "--out", str(tmp_path / "w.json")])
+    err = capsys.readouterr().err
+    assert rc == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blind.ctl"]
+
+
+def test_the_walks_in_mujoco_are_measured_and_written_as_ours(tmp_path, capsys):
+    """Two paths, 1 s, in MuJoCo C at a step of 1 ms: one row per walk with its engine named, the summary line, and
+    the JSON of our walks' fields with the engine and MuJoCo's step."""
+    ctl = _ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias", 1.0)
+    out = tmp_path / "w.json"
+    rc = main(["follow", MODEL, "--ctl", ctl, "--path", "line:0.1", "--path", "points:-1,1", "--time", "1",
+               "--engine", "mujoco", "--mujoco-dt", "0.001", "--out", str(out)])
+    text = capsys.readouterr().out.splitlines()
+    assert rc == 0 and len(text) == 3
+    assert text[0].startswith(f"{ctl} line:0.1 [MuJoCo C]: finished in 0.0 s, mean distance from the path ")
+    assert text[1].startswith(f"{ctl} points:-1,1 [MuJoCo C]: ") and "waypoints 0 of 1" in text[1]
+    assert text[2] == "1 of 2 walks finished without a fall in MuJoCo C"
+    w = json.loads(out.read_text())
+    assert [(x["engine"], x["path"], x["mujoco_dt"]) for x in w] == [("mujoco", "line:0.1", 0.001),
+                                                                     ("mujoco", "points:-1,1", 0.001)]
+    assert w[0]["finished"] and len(w[0]["trajectory"]) == 1 and len(w[1]["trajectory"]) == 21   # 1 s at 20 Hz
+    assert w[1]["command_mean_abs"] == pytest.approx(0.3, abs=1e-9)      # the waypoint 45 deg left: clipped to 0.3
+
+
+@pytest.mark.slow   # 20 s of CPU, most of it compiling our steered episode
+def test_both_engines_walk_each_path_side_by_side(tmp_path, capsys):
+    """`--engine both`: per walk our row, then MuJoCo's; our walk as `--engine ours` writes it, bit for bit."""
+    ctl = _ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias", 1.0)
+    args = ["follow", MODEL, "--ctl", ctl, "--path", "circle:1", "--path", "points:1,1", "--time", "1"]
+    assert main([*args, "--out", str(tmp_path / "ours.json")]) == 0
+    capsys.readouterr()
+    assert main([*args, "--engine", "both", "--out", str(tmp_path / "both.json")]) == 0
+    text = capsys.readouterr().out.splitlines()
+    assert [line.split(": ", 1)[0] for line in text[:4]] == [
+        f"{ctl} circle:1 [ours]", f"{ctl} circle:1 [MuJoCo C]", f"{ctl} points:1,1 [ours]",
+        f"{ctl} points:1,1 [MuJoCo C]"]
+    assert text[4].endswith("walks finished without a fall in our simulator") and text[5].endswith("in MuJoCo C")
+    ours, both = json.loads((tmp_path / "ours.json").read_text()), json.loads((tmp_path / "both.json").read_text())
+    assert [x["engine"] for x in both] == ["ours", "mujoco", "ours", "mujoco"]
+    assert [{k: v for k, v in x.items() if k != "engine"} for x in both[::2]] == ours
+
+
+def test_on_rough_ground_mujocos_default_step_is_flagged(tmp_path, capsys):
+    """The model's own rough field in MuJoCo C at the export's 2 ms: the note that names 0.00025 s, as `transfer`'s;
+    given a step, no note."""
+    from pathlib import Path
+
+    wl = tmp_path / "rough.wl"
+    wl.write_text(Path(MODEL).read_text().replace("Terrain       flat", "Terrain       rough 0.02"))
+    ctl = _ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias")
+    for dt, noted in ((None, True), ("0.001", False)):
+        rc = main(["follow", str(wl), "--ctl", ctl, "--path", "line:0.1", "--time", "0.1", "--engine", "mujoco",
+                   *(["--mujoco-dt", dt] if dt else [])])
+        out = capsys.readouterr()
+        assert rc == 0 and ("--mujoco-dt 0.00025" in out.err) == noted and "[MuJoCo C]: finished in 0.0 s" in out.out
