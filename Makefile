@@ -29,7 +29,7 @@ run: $(STAMP)
 	$(BIN)/cpgjax best $(QUICK).h5 --ctl $(QUICK)-best.ctl
 	@echo ""
 	@echo "fitness plot: $(QUICK).png   best controller: $(QUICK)-best.ctl"
-	@echo "replay it:  $(BIN)/cpgjax simulate models/quadruped.wl --pipeline exact --ctl $(QUICK)-best.ctl"
+	@echo "replay it:  $(BIN)/cpgjax simulate models/quadruped.wl --ctl $(QUICK)-best.ctl"
 	@echo "watch it, here and in MuJoCo side by side:  MUJOCO_GL=egl $(BIN)/cpgjax render $(QUICK).h5 --engine both --out $(QUICK).mp4"
 	@echo "cpgjax is installed in $(VENV), not on your PATH: run it as $(BIN)/cpgjax COMMAND,"
 	@echo "or first 'source $(BIN)/activate' and then just cpgjax COMMAND (cpgjax --help lists them)"

@@ -151,10 +151,8 @@ def test_a_figure_quoted_away_from_its_page_links_to_it_with_the_same_value():
     assert not bad, "\n".join(bad)
 
 
-README_REASON = "README.md's Results in brief quotes figures unlinked; fixed where README.md is edited"
 
 
-@pytest.mark.xfail(strict=False, reason=README_REASON)
 def test_the_readme_quotes_figures_as_links_with_the_same_value():
     bad = problems(ROOT, [ROOT / "README.md"])
     assert not bad, "\n".join(bad)
