@@ -361,6 +361,8 @@ def _follow_ctl(args: argparse.Namespace) -> int:
     engine = args.engine or "ours"
     if args.mujoco_dt is not None and engine == "ours":
         raise ValueError("--mujoco-dt: with --engine mujoco or both (MuJoCo C's step)")
+    if args.video and engine == "mujoco":
+        raise ValueError("--video draws our simulator's walk: with --engine ours or both")
     from cpgjax.cli.simulate import header_settings
 
     rp = header_settings(args.ctl, args, takes=("pipeline",))     # --time is the walk's, not an episode's
