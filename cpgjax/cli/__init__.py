@@ -17,6 +17,8 @@ a line saying what was kept.
 
 from __future__ import annotations
 
+import argparse
+import re
 import sys
 
 from cpgjax.cli.options import Parser
@@ -60,12 +62,19 @@ def _message(e: BaseException) -> str:
     return " ".join(line.strip() for line in text.splitlines() if line.strip())
 
 
+def _options(parser: Parser, command: str) -> set[str]:
+    """The option strings of ``cpgjax COMMAND``."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return {s for a in sub.choices[command]._actions for s in a.option_strings}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run ``cpgjax ARGV``; returns the exit code (0 ok, 2 bad input, 130 interrupted)."""
     from cpgjax.errors import CpgjaxError
 
+    parser = build_parser()
     try:
-        args = build_parser().parse_args(argv)
+        args = parser.parse_args(argv)
     except SystemExit as e:        # --help, or a bad option (argparse printed one line)
         return e.code if isinstance(e.code, int) else (0 if e.code is None else EXIT_BAD_INPUT)
     except KeyboardInterrupt:
@@ -79,7 +88,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{cmd}: interrupted" + (f": {e}" if str(e) else ""), file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CpgjaxError, ValueError, OSError) as e:
-        print(f"{cmd}: error: {_message(e)}", file=sys.stderr)
+        advice = getattr(e, "advice", None)    # e.g. "start anew with --overwrite": only where the command has it
+        fits = advice and all(o in _options(parser, args.command) for o in re.findall(r"--[a-z][-a-z]*", advice))
+        print(f"{cmd}: error: {_message(e)}" + (f"; {advice}" if fits else ""), file=sys.stderr)
         return getattr(e, "exit_code", EXIT_BAD_INPUT)
 
 

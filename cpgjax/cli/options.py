@@ -133,9 +133,33 @@ def terrain(text: str) -> str:
     return text
 
 
+ON, OFF = ("1", "on", "true", "yes"), ("0", "off", "false", "no")
+
+
+def _perturbation(key: str, kind: object, value: str) -> bool | int | float:
+    """One ``--perturb`` value of the field ``key`` (annotated ``kind``), else ArgumentTypeError naming the rule."""
+    v = value.strip().lower()
+    if kind in (bool, "bool"):
+        if v not in ON + OFF:
+            raise argparse.ArgumentTypeError(f"{key}: expected on or off (1/0, true/false, yes/no), got {value!r}")
+        return v in ON
+    if key == "latency":
+        if v not in ("0", "1"):
+            raise argparse.ArgumentTypeError(f"latency: expected 0 or 1 (steps between observation and action), "
+                                             f"got {value!r}")
+        return int(v)
+    integer = kind in (int, "int")
+    what = "a whole number >= 1" if integer else "a finite number >= 0"
+    try:
+        return whole(v, what, 1) if integer else number(v, what, 0.0)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"{key}: expected {what}, got {value!r}") from None
+
+
 def perturbations(text: str) -> dict:
     """``KEY=VALUE,...`` ranges of the robust evaluation (cpgjax.episode.perturb.Perturbations), checked now;
-    ``preset=NAME`` starts from a named set of them (``domain``: domain randomisation)."""
+    ``preset=NAME`` starts from a named set of them (``domain``: domain randomisation).  A key given twice is
+    refused (which one would hold?)."""
     import dataclasses
 
     from cpgjax.episode.perturb import PRESETS, Perturbations
@@ -147,17 +171,14 @@ def perturbations(text: str) -> dict:
         key = key.strip().replace("-", "_")
         if not sep or key not in fields:
             raise argparse.ArgumentTypeError(f"expected KEY=VALUE with KEY in {', '.join(fields)}, got {item!r}")
+        if key in out:
+            raise argparse.ArgumentTypeError(f"{key} is given twice in {text!r}: give each key once")
         if key == "preset":
             if value.strip() not in PRESETS:
                 raise argparse.ArgumentTypeError(f"preset: expected one of {', '.join(PRESETS)}, got {value!r}")
             out[key] = value.strip()
             continue
-        try:
-            kind = fields[key]    # the annotation, a string under `from __future__ import annotations`
-            out[key] = (value.strip().lower() in ("1", "on", "true", "yes") if kind in (bool, "bool")
-                        else int(value) if kind in (int, "int") else float(value))
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{key}: expected a number, got {value!r}") from None
+        out[key] = _perturbation(key, fields[key], value)  # fields[key]: the annotation, maybe a string
     try:
         Perturbations.from_settings(out)
     except ValueError as e:

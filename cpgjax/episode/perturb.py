@@ -139,6 +139,19 @@ PRESETS = {
 }
 
 
+def check_controller(p: Perturbations, family) -> None:
+    """Refuse ranges that ``family`` (a :class:`cpgjax.episode.policy.Family`; None: the open-loop CPG) cannot
+    feel, rather than ignore them: sensor ``noise`` and ``latency`` need a controller that reads sensors, a
+    ``command`` one that reads the command (ValueError naming the key)."""
+    for key, what in (("noise", "sensor noise"), ("latency", "a sensor latency")):
+        if family is None and getattr(p, key):
+            raise ValueError(f"perturbation {key}: the open-loop CPG reads no sensor, so {what} would change "
+                             "nothing; it applies to a closed-loop controller (--controller pmtg, docs/closed-loop.md)")
+    if p.command > 0 and (family is None or "command" not in family.inputs):
+        raise ValueError("perturbation command: the controller must read the command (--controller "
+                         "pmtg:...+command+..., e.g. pmtg:tilt+contact+command+steer+bias)")
+
+
 def roughened(terrain: Terrain, roughness: float) -> Terrain:
     """``terrain`` plus a fixed field of uniform roughness in [0, roughness] (0.1 m cells)."""
     if roughness <= 0:
