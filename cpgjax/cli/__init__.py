@@ -23,6 +23,24 @@ import sys
 
 from cpgjax.cli.options import Parser
 
+DESCRIPTION = """\
+Evolve gaits for walking robots in a penalty-method rigid-body simulator written in JAX,
+after G. Grasso's thesis (NJIT, 2000), and check them in MuJoCo.
+
+- simulate, render: run or draw one episode of a robot model (.wl) and a controller (.ctl);
+- evolve, search, sweep: evolve controllers with the thesis's genetic algorithm, or with
+  random search, adaptive Monte Carlo or evolution strategies, one run or a grid of them:
+  the thesis's open-loop CPGs (a Fourier series per joint), or closed-loop ones (pmtg: the
+  CPG modulated by a feedback policy reading the robot's sensors); scored by one episode
+  or robustly, over many perturbed ones (domain randomisation);
+- best, plot, report, notebook, stability, robustness: read, plot and test the results;
+- crosscheck, transfer, export, servo: compare the simulator with MuJoCo C and MJX, and
+  replay evolved gaits there (do they carry over?);
+- repertoire, repertoire-plot, adapt, follow: a repertoire of gaits by MAP-Elites, a
+  damaged robot finding by trial one of its gaits that still walks (intelligent trial
+  and error, IT&E), walking along a path by steering;
+- bench, study-dt, study-friction: speed and the simulator's numerical choices."""
+
 GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability", "validation", "repertoire")
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -31,9 +49,9 @@ EXIT_INTERRUPTED = 130
 def build_parser() -> Parser:
     import importlib
 
-    p = Parser(prog="cpgjax",
-               description="Evolve open-loop CPG controllers for walking robots in a penalty-method JAX "
-                           "simulator (after G. Grasso, 2000).")
+    p = Parser(prog="cpgjax", formatter_class=argparse.RawDescriptionHelpFormatter,
+               description=DESCRIPTION, epilog="Each command's options: cpgjax COMMAND --help. Terms: "
+                                               "docs/glossary.md.")
     from cpgjax import __version__
 
     p.add_argument("--version", action="version", version=f"cpgjax {__version__}")

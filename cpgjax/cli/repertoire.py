@@ -73,7 +73,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--method", choices=METHODS, default=None,
                    help=f"map-elites: Gaussian mutation (Mouret & Clune 2015); iso-line: iso+line variation "
                         f"(Vassiliades & Mouret 2018) (default {d.method})")
-    p.add_argument("--evaluations", type=o.count, default=None, help=f"evaluation budget (default {d.evaluations})")
+    p.add_argument("--evaluations", type=o.count, default=None, help=f"evaluation budget: controllers scored in all "
+                                                                     f"(default {d.evaluations})")
     p.add_argument("--batch", type=o.count, default=None, help=f"children per generation (default {d.batch})")
     p.add_argument("--init-batches", type=o.count0, default=None,
                    help=f"generations of random genomes first (default {d.init_batches})")
@@ -95,7 +96,8 @@ def register(subparsers: Any) -> None:
                         "docs/repertoire.md)")
     o.seed_option(p, None, shown=d.seed)
     p.add_argument("--chunk", type=o.count, default=None, help=f"generations per jitted chunk (default {d.chunk})")
-    p.add_argument("--out", default=None, help="results file (default runs/MODEL-repertoire-sSEED.h5)")
+    p.add_argument("--out", default=None, metavar="REP.h5",
+                   help="the repertoire's run file, every evaluation in it (default runs/MODEL-repertoire-sSEED.h5)")
     o.run_file_options(p, "repertoire")
     o.quiet_option(p)
     p.set_defaults(func=cmd_repertoire)
@@ -123,7 +125,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--ga-generations", type=o.count0, default=0,
                    help="study: generations of the GA from scratch on the damaged robot (population 20; 0: none)")
     p.add_argument("--trials", type=o.count, default=None,
-                   help=f"most trials (default {a.trials}; study: 50 with the stopping rule off, {a.trials} with it)")
+                   help=f"the most trials on the damaged robot before giving up (default {a.trials}; study: 50 with "
+                        f"the stopping rule off, {a.trials} with it)")
     p.add_argument("--alpha", type=o.fraction, default=None,
                    help=f"stop when the best trial reaches alpha x min(the best prediction + STOP_Z standard "
                         f"deviations, the repertoire's best) (default {a.alpha:g})")
@@ -190,8 +193,9 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_follow)
 
     p = subparsers.add_parser("repertoire-plot", help="a repertoire's heatmap, coverage and QD-score per evaluation")
-    p.add_argument("repertoire", metavar="REP.h5")
-    p.add_argument("--out", default=None, metavar="FIG.png", help="figure file (default: REP with .png)")
+    p.add_argument("repertoire", metavar="REP.h5", help="a repertoire file written by cpgjax repertoire")
+    p.add_argument("--out", default=None, metavar="FIG.png", help="the figure file written (default: REP's name with "
+                                                                  ".png)")
     p.set_defaults(func=cmd_plot)
 
 

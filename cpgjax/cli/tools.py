@@ -45,7 +45,7 @@ def register(subparsers: Any) -> None:
     d = subparsers.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
     o.model_argument(d, optional=True)
     d.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
-                   help="the walking controller (default: the hand-written trot)")
+                   help="the walking controller (.ctl) run at every step size (default: the hand-written trot)")
     d.add_argument("--dts", type=o.list_of(o.step, "expected time steps in (0, 0.05] s"),
                    default=[1e-4, 2e-4, 3e-4, 5e-4, 7e-4, 1e-3, 1.5e-3],
                    help="comma-separated time steps (default 1e-4,2e-4,3e-4,5e-4,7e-4,1e-3,1.5e-3)")
@@ -58,9 +58,10 @@ def register(subparsers: Any) -> None:
                                                      "with MuJoCo C (docs/simulator.md)")
     o.model_argument(f, optional=True)
     f.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
-                   help="the controller to jitter (default: the hand-written trot)")
+                   help="the controller (.ctl) replayed with its genes jittered (default: the hand-written trot)")
     f.add_argument("--springs", type=_springs, default=[(1e3, 300.0), (1e4, 1e3), (1e5, 300.0), (1e5, 1e3)],
-                   help="bristles K:B, comma-separated (default 1e3:300,1e4:1e3,1e5:300,1e5:1e3; "
+                   help="the friction bristles compared, each spring stiffness K and damping B as K:B, "
+                        "comma-separated (default 1e3:300,1e4:1e3,1e5:300,1e5:1e3; "
                         "the simulator's default is 1e3:300)")
     f.add_argument("--runs", nargs="*", default=[], metavar="RUN.h5|SWEEP_DIR",
                    help="evolved runs: their bests are replayed here and in MuJoCo C")
