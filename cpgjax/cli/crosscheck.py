@@ -21,14 +21,15 @@ def register(subparsers: Any) -> None:
     c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
     o.model_argument(c)
     c.add_argument("--ctl", nargs="*", help="controller files (.ctl) to compare, besides the random and perturbed ones")
-    c.add_argument("--controllers", nargs="*", metavar="RUN.h5", help="GA runs: their 8 best distinct genomes")
+    c.add_argument("--controllers", nargs="*", metavar="RUN.h5",
+                   help="run files of evolve or search: each run's 8 best distinct controllers are compared")
     c.add_argument("--random", type=o.count0, default=16,
                    help="how many random controllers, every gene uniform in [-0.8, 0.8], to compare (default 16)")
     c.add_argument("--perturbed", type=o.count0, default=16,
                    help="the hand-written trot with N(0, 0.1) added to every gene (default 16)")
     c.add_argument("--perturb-ctl", help="the controller (.ctl) that --perturbed adds noise to "
                                           "(default models/quadruped-trot.ctl)")
-    c.add_argument("--n", type=o.count, help="at most this many controllers")
+    c.add_argument("--n", type=o.count, help="compare at most this many controllers in all (default: every one)")
     o.time_option(c)
     o.terrain_option(c)
     c.add_argument("--show", type=o.count0, default=0, help="which controller to plot (index, default 0)")

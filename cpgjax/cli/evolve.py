@@ -52,8 +52,8 @@ def register(subparsers: Any) -> None:
         o.controller_option(p)
         o.seed_option(p, None, shown=d.seed)
         p.add_argument("--chunk", type=o.count, default=None,
-                       help=f"generations per jitted chunk; a kill loses at most the chunk in flight "
-                            f"(default {d.chunk})")
+                       help=f"generations compiled and run as one piece between writes to the run file; a kill loses "
+                            f"at most the piece in flight, and results do not depend on it (default {d.chunk})")
         p.add_argument("--out", default=None, metavar="RUN.h5",
                        help=f"the run file written, one row per generation (default runs/MODEL-{kind}-sSEED.h5)")
         o.run_file_options(p)

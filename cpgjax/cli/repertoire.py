@@ -58,9 +58,10 @@ def register(subparsers: Any) -> None:
     d = MEConfig()
     p = subparsers.add_parser(
         "repertoire", help="a repertoire of gaits by MAP-Elites (quality-diversity; docs/repertoire.md)",
-        description="MAP-Elites over a grid of behaviour descriptors (each leg's duty factor, or forward speed x "
-                    "turning rate), computed online in the episode; every evaluation is written to an HDF5 run "
-                    "file, from which the archive is rebuilt exactly (--resume continues bit for bit).")
+        description="Build a repertoire of gaits by MAP-Elites (quality-diversity; docs/glossary.md): the best "
+                    "controller found for each cell of a grid of behaviour descriptors (each leg's duty factor, or "
+                    "forward speed x turning rate), computed online in the episode; every evaluation is written to "
+                    "an HDF5 run file, from which the archive is rebuilt exactly (--resume continues bit for bit).")
     o.model_argument(p)
     p.add_argument("--descriptor", choices=DESCRIPTORS, default=None,
                    help=f"duty: each leg's duty factor (Cully et al. 2015); speed-turn: forward speed (m/s) x "
@@ -85,7 +86,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--sigma-line", type=o.nonneg, default=None,
                    help=f"iso-line: std along the line between two elites (default {d.sigma_line:g})")
     p.add_argument("--qd-offset", type=o.finite, default=None,
-                   help=f"fitness lower bound of the QD-score (default {d.qd_offset:g})")
+                   help=f"the QD-score sums every elite's fitness minus this, a bound below any fitness, so that a "
+                        f"fuller repertoire scores more (default {d.qd_offset:g})")
     p.add_argument("--keep-fallen", action="store_true", default=None,
                    help="insert robots that fell too (body past 60 degrees; default: never, a fall is not a gait)")
     o.time_option(p, of=f"{DEFAULT_TIME:g} s, not the model file's")
@@ -95,7 +97,9 @@ def register(subparsers: Any) -> None:
                    help="build the repertoire on a damaged robot (leg=AR, locked=KneeAR, weak=HipPL:0.3; "
                         "docs/repertoire.md)")
     o.seed_option(p, None, shown=d.seed)
-    p.add_argument("--chunk", type=o.count, default=None, help=f"generations per jitted chunk (default {d.chunk})")
+    p.add_argument("--chunk", type=o.count, default=None,
+                   help=f"generations compiled and run as one piece between writes to the run file; a kill loses at "
+                        f"most the piece in flight, and results do not depend on it (default {d.chunk})")
     p.add_argument("--out", default=None, metavar="REP.h5",
                    help="the repertoire's run file, every evaluation in it (default runs/MODEL-repertoire-sSEED.h5)")
     o.run_file_options(p, "repertoire")
@@ -133,11 +137,14 @@ def register(subparsers: Any) -> None:
     p.add_argument("--stop-z", type=o.nonneg, default=None, metavar="STOP_Z",
                    help=f"the stopping rule's confidence, in the GP's standard deviations (default {a.stop_z:g}; "
                         "0: Cully et al.'s rule, alpha x the best prediction)")
-    p.add_argument("--kappa", type=o.nonneg, default=None, help=f"UCB exploration weight (default {a.kappa:g})")
+    p.add_argument("--kappa", type=o.nonneg, default=None,
+                   help=f"how much the next trial favours elites the model is unsure of over those it predicts "
+                        f"good (the UCB exploration weight; default {a.kappa:g})")
     p.add_argument("--rho", type=o.positive, default=None,
                    help=f"Matern-5/2 length scale, in descriptor units (default {a.rho:g})")
     p.add_argument("--noise", type=o.positive, default=None,
-                   help=f"observation noise variance (default {a.noise:g})")
+                   help=f"the Gaussian process's observation noise variance: how much a trial's fitness may differ "
+                        f"from the truth (default {a.noise:g})")
     p.add_argument("--offset", action=argparse.BooleanOptionalAction, default=None,
                    help="the GP's prior mean is the repertoire's fitness plus an unknown constant, learnt from the "
                         "trials (a damage that lowers every gait is one shift, not a penalty on the tried "
@@ -163,14 +170,16 @@ def register(subparsers: Any) -> None:
                     "(docs/repertoire.md, Steering).")
     o.model_argument(p, help="robot description (.wl): the repertoire's, or the controllers'")
     src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--repertoire", metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
+    src.add_argument("--repertoire", metavar="REP.h5",
+                     help="a repertoire file built with --descriptor speed-turn: the gaits to choose from")
     src.add_argument("--ctl", action="append", metavar="CTL",
                      help="a closed-loop controller that reads the command (.ctl); repeat for several, each walks "
                           "every --path")
     p.add_argument("--path", required=True, action="append", metavar="SPEC",
                    help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m); "
                         "with --ctl repeat for several")
-    p.add_argument("--cycles", type=o.count, default=None, help="--repertoire: most gait cycles (default: 40)")
+    p.add_argument("--cycles", type=o.count, default=None,
+                   help="--repertoire: the most gait cycles walked (default: 40)")
     p.add_argument("--lookahead", type=o.int_in(0, 4096), default=None, metavar="K",
                    help="candidate gaits simulated ahead every cycle, in one batch (default: 64); 0: no "
                         "look-ahead, the gait whose turning rate is nearest the wanted one")
@@ -188,7 +197,8 @@ def register(subparsers: Any) -> None:
                    help=f"--ctl: the command's range, that of the evolution's --perturb command=R "
                         f"(default {LIMIT:g} rad/s)")
     o.pipeline_option(p)
-    p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk (--ctl: one controller, one path)")
+    p.add_argument("--video", default=None, metavar="OUT.mp4",
+                   help="render the walk to this video file (.mp4 or .gif; --ctl: one controller, one path)")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
 

@@ -18,7 +18,8 @@ def register(subparsers: Any) -> None:
     s.add_argument("--ctl", help="controller (.ctl); without it every servo holds angle 0")
     o.time_option(s)
     o.terrain_option(s)
-    s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
+    s.add_argument("--log", metavar="DIR",
+                   help="write one thesis-format log per Log statement into DIR (default: no logs)")
     o.dt_option(s)
     o.pipeline_option(s)
     s.add_argument("--gravity", type=o.finite, help="the acceleration of gravity pulling every body down, m/s^2 "
@@ -30,7 +31,7 @@ def register(subparsers: Any) -> None:
                               help="replay a controller with its genes jittered: mean and spread of fitness")
     o.model_argument(r)
     r.add_argument("--ctl", required=True, help="the controller file (.ctl) replayed")
-    r.add_argument("--n", type=o.count, default=64, help="replays per jitter (default 64)")
+    r.add_argument("--n", type=o.count, default=64, help="replays at each --jitter value (default 64)")
     r.add_argument("--jitter", type=o.list_of(o.nonneg, "expected numbers >= 0, e.g. 1e-6,1e-4"),
                    default=[1e-6, 1e-4, 1e-2], help="standard deviations of the gene offsets (default 1e-6,1e-4,1e-2)")
     o.time_option(r)

@@ -73,10 +73,12 @@ def register(subparsers: Any) -> None:
                     "program (one simulator call per generation for all runs); one HDF5 per run under "
                     "OUT/<cell>/s<seed>.h5; resumable (complete runs are skipped, partial ones continued).")
     o.model_argument(p, help="robot description (.wl) or analytic:sphere:G (test/demo)")
-    p.add_argument("--out", required=True, help="sweep directory (runs/NAME/)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="the sweep's folder, one run file per setting and seed in it (e.g. runs/NAME/)")
     p.add_argument("--preset", choices=("full", "tiny"), default=None,
-                   help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.experiments.sweep.SCALES); "
-                        "other grid options ignored")
+                   help="run the thesis's experiment of Figs. 6.5-6.12, every GA setting and baseline it compares: "
+                        "full at the thesis's scale, tiny a toy version of it; the other grid options are then "
+                        "ignored (default: the grid the options give)")
     p.add_argument("--gamma", type=_floats,
                    help=f"comma list of mutation-rate decays: mu = mu_max / (1 + gamma x generation), 0 fixed "
                         f"(default {d.gamma:g}; see evolve --gamma)")
@@ -112,17 +114,20 @@ def register(subparsers: Any) -> None:
     p.add_argument("--samples", type=o.count, help="evaluation budget of each baseline run (default population x "
                                                    "generations, the GA's)")
     p.add_argument("--seeds", type=_seeds,
-                   help=f"{DEFAULT_SEEDS} (= seeds 0..{DEFAULT_SEEDS - 1}, the default), a comma list 3,7,9 "
-                        "or a range 10:15")
+                   help=f"the seeds every setting runs with: a count N (seeds 0..N-1; default {DEFAULT_SEEDS}), a "
+                        "comma list 3,7,9 or a range 10:15")
     o.time_option(p)
     o.terrain_option(p)
     o.delta_option(p, of=f"{DEFAULT_DELTA:g}")
     o.evaluation_options(p)
     o.pipeline_option(p, "the model file's Pipeline, else springs; every run of a sweep folder has one")
     o.controller_option(p)
-    p.add_argument("--chunk", type=o.count, default=d.chunk, help=f"generations per jitted chunk (default {d.chunk})")
+    p.add_argument("--chunk", type=o.count, default=d.chunk,
+                   help=f"generations compiled and run as one piece between writes to the run file; a kill loses at "
+                        f"most the piece in flight, and results do not depend on it (default {d.chunk})")
     p.add_argument("--group", choices=("all", "kind"), default="all",
-                   help="all runs in one program (default) or one program per group of same-shaped runs")
+                   help="all: every run in one compiled program (default); kind: one program per group of runs of the "
+                        "same shape")
     p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="run the sweep's shards as Ray tasks (pip install -e .[cluster]): without ADDRESS on a "
                         "local Ray instance, with one (e.g. 10.0.0.1:6379 or auto) on that cluster; OUT must be "

@@ -23,7 +23,8 @@ def register(subparsers: Any) -> None:
     o.time_option(b, of="2 s; --table-a1: each example's time in the thesis; the model file's TimeMax is not used")
     b.add_argument("--chunk", type=o.count, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
-    b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
+    b.add_argument("--against", choices=["mjx"],
+                   help="also time the same robot in MJX (and MuJoCo C), side by side (default: ours only)")
     b.add_argument("--sweep", action="store_true",
                    help="evaluations/s of one GA run vs the thesis sweep (cpgjax sweep --preset full) in one program")
     b.add_argument("--generations", type=o.count, default=5, help="--sweep: generations per run (default 5)")
