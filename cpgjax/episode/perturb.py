@@ -150,9 +150,9 @@ MEANING = {
     "command": "closed-loop controllers that read the command only: a turning rate drawn up to +-x rad/s for each "
                "half of the episode, the score how well the robot follows it (steering)",
     "speed": "with command: the steering score credits speed up to this, m/s (0: no cap)",
-    "fall_ends": "on: a fall (the body tilted past 60 degrees) ends the episode's score",
-    "fall_zero": "on: a fall forfeits the episode, it scores 0",
-    "fall_survival": "on: a fall scales the episode's score by the share of it before the fall",
+    "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
+    "fall_zero": "when on, a fall forfeits the episode, it scores 0",
+    "fall_survival": "when on, a fall scales the episode's score by the share of it before the fall",
 }
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).

@@ -203,8 +203,11 @@ def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
     """
     a = read_attrs(path)
     if a.get("kind") != algo.kind:
-        raise ResultsError(f"{path}: cannot resume: it holds a {a.get('kind')!r} run, not {algo.kind!r} "
-                           "(choose another --out, or start anew with --overwrite)")
+        kind = a.get("kind")
+        what = (f"--method {algo.kind} differs from the run's {kind}" if "ga" not in (kind, algo.kind) else
+                f"it holds a {'GA' if kind == 'ga' else repr(kind)} run, not a "
+                f"{'GA' if algo.kind == 'ga' else repr(algo.kind)} one")
+        raise ResultsError(f"{path}: cannot resume: {what} (choose another --out, or start anew with --overwrite)")
     stored = json.loads(a["config"])
     for k, v in algo.config.items():
         if k not in algo.resumable_changes and stored.get(k) != v:

@@ -95,6 +95,8 @@ ROWS = [
      [f"--start {CTL} differs from the run's none"], []),
     ("resume-other-perturb", ["evolve", M, "--out", "robust.h5", "--resume", "--perturb", "lift=0.02", "--quiet"],
      ["--perturb lift=0.02 differs from the run's lift=0.01"], []),
+    ("resume-ga-as-search", ["search", M, "--out", "cpg.h5", "--resume", "--quiet"],
+     ["cpg.h5: cannot resume: it holds a GA run, not a 'random' one"], []),
     ("resume-other-evaluation", ["evolve", M, "--out", "cpg.h5", "--resume", "--evaluation", "robust", "--quiet"],
      ["--evaluation robust differs from the run's thesis"], []),
 ]
@@ -115,6 +117,14 @@ def test_bad_option_is_one_line_exit_2_and_writes_nothing(folder, monkeypatch, c
     for text in absent:
         assert text not in lines[0], err
     assert _files(folder) == before
+
+
+def test_a_resume_with_another_method_names_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["search", "analytic:sphere:4", "--out", "s.h5", "--samples", "40", "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["search", "analytic:sphere:4", "--out", "s.h5", "--method", "amc", "--resume", "--quiet"]) == 2
+    assert "s.h5: cannot resume: --method amc differs from the run's random" in capsys.readouterr().err
 
 
 def test_good_perturbations_still_parse():
