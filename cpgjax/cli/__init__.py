@@ -17,9 +17,29 @@ a line saying what was kept.
 
 from __future__ import annotations
 
+import argparse
+import re
 import sys
 
 from cpgjax.cli.options import Parser
+
+DESCRIPTION = """\
+Evolve gaits for walking robots in a penalty-method rigid-body simulator written in JAX,
+after G. Grasso's thesis (NJIT, 2000), and check them in MuJoCo.
+
+- simulate, render: run or draw one episode of a robot model (.wl) and a controller (.ctl);
+- evolve, search, sweep: evolve controllers with the thesis's genetic algorithm, or with
+  random search, adaptive Monte Carlo or evolution strategies, one run or a grid of them:
+  the thesis's open-loop CPGs (a Fourier series per joint), or closed-loop ones (pmtg: the
+  CPG modulated by a feedback policy reading the robot's sensors); scored by one episode
+  or robustly, over many perturbed ones (domain randomisation);
+- best, plot, report, notebook, stability, robustness: read, plot and test the results;
+- crosscheck, transfer, export, servo: compare the simulator with MuJoCo C and MJX, and
+  replay evolved gaits there (do they carry over?);
+- repertoire, repertoire-plot, adapt, follow: a repertoire of gaits by MAP-Elites, a
+  damaged robot finding by trial one of its gaits that still walks (intelligent trial
+  and error, IT&E), walking along a path by steering;
+- bench, study-dt, study-friction: speed and the simulator's numerical choices."""
 
 GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability", "validation", "repertoire")
 EXIT_BAD_INPUT = 2
@@ -29,9 +49,9 @@ EXIT_INTERRUPTED = 130
 def build_parser() -> Parser:
     import importlib
 
-    p = Parser(prog="cpgjax",
-               description="Evolve open-loop CPG controllers for walking robots in a penalty-method JAX "
-                           "simulator (after G. Grasso, 2000).")
+    p = Parser(prog="cpgjax", formatter_class=argparse.RawDescriptionHelpFormatter,
+               description=DESCRIPTION, epilog="Each command's options: cpgjax COMMAND --help. Terms: "
+                                               "docs/glossary.md.")
     from cpgjax import __version__
 
     p.add_argument("--version", action="version", version=f"cpgjax {__version__}")
@@ -60,12 +80,19 @@ def _message(e: BaseException) -> str:
     return " ".join(line.strip() for line in text.splitlines() if line.strip())
 
 
+def _options(parser: Parser, command: str) -> set[str]:
+    """The option strings of ``cpgjax COMMAND``."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return {s for a in sub.choices[command]._actions for s in a.option_strings}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run ``cpgjax ARGV``; returns the exit code (0 ok, 2 bad input, 130 interrupted)."""
     from cpgjax.errors import CpgjaxError
 
+    parser = build_parser()
     try:
-        args = build_parser().parse_args(argv)
+        args = parser.parse_args(argv)
     except SystemExit as e:        # --help, or a bad option (argparse printed one line)
         return e.code if isinstance(e.code, int) else (0 if e.code is None else EXIT_BAD_INPUT)
     except KeyboardInterrupt:
@@ -79,7 +106,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{cmd}: interrupted" + (f": {e}" if str(e) else ""), file=sys.stderr)
         return EXIT_INTERRUPTED
     except (CpgjaxError, ValueError, OSError) as e:
-        print(f"{cmd}: error: {_message(e)}", file=sys.stderr)
+        advice = getattr(e, "advice", None)    # e.g. "start anew with --overwrite": only where the command has it
+        fits = advice and all(o in _options(parser, args.command) for o in re.findall(r"--[a-z][-a-z]*", advice))
+        print(f"{cmd}: error: {_message(e)}" + (f"; {advice}" if fits else ""), file=sys.stderr)
         return getattr(e, "exit_code", EXIT_BAD_INPUT)
 
 

@@ -14,19 +14,22 @@ from cpgjax.cli import options as o
 def register(subparsers: Any) -> None:
     e = subparsers.add_parser("export", help="write the model as MJCF for MuJoCo / MJX")
     o.model_argument(e)
-    e.add_argument("--out", help="output .xml (default: beside the model)")
+    e.add_argument("--out", help="the MJCF file written (.xml; default: beside the model, with .xml)")
     o.terrain_option(e)
     e.set_defaults(func=cmd_export)
 
     c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
     o.model_argument(c)
-    c.add_argument("--ctl", nargs="*", help="controllers (.ctl)")
-    c.add_argument("--controllers", nargs="*", metavar="RUN.h5", help="GA runs: their 8 best distinct genomes")
-    c.add_argument("--random", type=o.count0, default=16, help="random controllers in [-0.8, 0.8] (default 16)")
+    c.add_argument("--ctl", nargs="*", help="controller files (.ctl) to compare, besides the random and perturbed ones")
+    c.add_argument("--controllers", nargs="*", metavar="RUN.h5",
+                   help="run files of evolve or search: each run's 8 best distinct controllers are compared")
+    c.add_argument("--random", type=o.count0, default=16,
+                   help="how many random controllers, every gene uniform in [-0.8, 0.8], to compare (default 16)")
     c.add_argument("--perturbed", type=o.count0, default=16,
                    help="the hand-written trot with N(0, 0.1) added to every gene (default 16)")
-    c.add_argument("--perturb-ctl", help="controller to perturb (default models/quadruped-trot.ctl)")
-    c.add_argument("--n", type=o.count, help="at most this many controllers")
+    c.add_argument("--perturb-ctl", help="the controller (.ctl) that --perturbed adds noise to "
+                                          "(default models/quadruped-trot.ctl)")
+    c.add_argument("--n", type=o.count, help="compare at most this many controllers in all (default: every one)")
     o.time_option(c, of=o.CTL_OR_FILE)
     o.terrain_option(c, of=o.CTL_OR_FILE)
     c.add_argument("--show", type=o.count0, default=0, help="which controller to plot (index, default 0)")
@@ -40,7 +43,8 @@ def register(subparsers: Any) -> None:
     c.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="MuJoCo C's integration step (default: the export's, 2 ms; on rough ground use 0.00025, "
                         "where fast gaits' verdicts settle: docs/crosscheck.md); the ceiling runs it at half that")
-    c.add_argument("--out", default="runs/crosscheck", help="directory for the table and plots")
+    c.add_argument("--out", default="runs/crosscheck",
+                   help="directory for the table and plots (default runs/crosscheck)")
     c.set_defaults(func=cmd_crosscheck)
 
     t = subparsers.add_parser(

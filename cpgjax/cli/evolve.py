@@ -40,8 +40,9 @@ def register(subparsers: Any) -> None:
         o.terrain_option(p)
         o.delta_option(p, of=f"{DEFAULT_DELTA:g}")
         p.add_argument("--replicas", type=o.int_in(1, 1000), default=None,
-                       help="score each controller as the mean of R episodes with genes jittered by 1e-3 "
-                            "(default 1, the thesis; see docs/evolution.md, 'A noisy fitness')")
+                       help="score each controller as the mean of R episodes, each but the first with every gene "
+                            "moved by a fixed offset of sd 1e-3 (default 1, the thesis; a lucky single episode then "
+                            "counts for less: docs/evolution.md, 'A noisy fitness'); --evaluation robust goes further")
         o.evaluation_options(p)
         p.add_argument("--start", default=None, metavar="CTL",
                        help="start the search from this controller (.ctl) instead of the thesis's one 0.5 Hz "
@@ -51,30 +52,52 @@ def register(subparsers: Any) -> None:
         o.controller_option(p)
         o.seed_option(p, None, shown=d.seed)
         p.add_argument("--chunk", type=o.count, default=None,
-                       help=f"generations per jitted chunk; a kill loses at most the chunk in flight "
-                            f"(default {d.chunk})")
-        p.add_argument("--out", default=None, help=f"results file (default runs/MODEL-{kind}-sSEED.h5)")
+                       help=f"generations compiled and run as one piece between writes to the run file; a kill loses "
+                            f"at most the piece in flight, and results do not depend on it (default {d.chunk})")
+        p.add_argument("--out", default=None, metavar="RUN.h5",
+                       help=f"the run file written, one row per generation (default runs/MODEL-{kind}-sSEED.h5)")
         o.run_file_options(p)
         o.quiet_option(p)
 
-    p = subparsers.add_parser("evolve", help="evolve CPG controllers with the genetic algorithm (Ch. 4.3)",
-                              description="Evolve CPG controllers with the GA of Ch. 4.3 / 6.2; results in HDF5.")
+    p = subparsers.add_parser("evolve", help="evolve controllers with the thesis's genetic algorithm",
+                              description="Evolve controllers for a robot with the thesis's genetic algorithm "
+                                          "(Ch. 4.3, 6.2): a population scored in simulation, the fitter ones "
+                                          "duplicated (or crossed over) and mutated, generation after generation. "
+                                          "The controllers are the thesis's open-loop CPGs, or with --controller "
+                                          "pmtg closed-loop ones that read the robot's sensors. Every generation is "
+                                          "written to an HDF5 run file (--out), which --resume continues. Terms: "
+                                          "docs/glossary.md; the method: docs/evolution.md.")
     common(p, "ga")
-    p.add_argument("--population", type=o.count, default=None, help=f"N (default {d.population})")
-    p.add_argument("--generations", type=o.count, default=None, help=f"generations (default {d.generations})")
-    p.add_argument("--mu-max", type=o.fraction, default=None, help=f"mu_max of eq. 6.1 (default {d.mu_max})")
-    p.add_argument("--gamma", type=o.nonneg, default=None, help=f"gamma of eq. 6.1 (default {d.gamma})")
+    p.add_argument("--population", type=o.count, default=None,
+                   help=f"controllers per generation (default {d.population}; the thesis used 10 to 20)")
+    p.add_argument("--generations", type=o.count, default=None,
+                   help=f"how many generations the GA runs (default {d.generations}: {d.population} x "
+                        f"{d.generations} = {d.population * d.generations} evaluations, the thesis's budget)")
+    p.add_argument("--mu-max", type=o.fraction, default=None,
+                   help=f"mutation rate at the start: the chance that a gene of a child changes, in [0, 1] "
+                        f"(default {d.mu_max}); --gamma makes it decay")
+    p.add_argument("--gamma", type=o.nonneg, default=None,
+                   help=f"how fast the mutation rate decays: mu = mu_max / (1 + gamma x generation); 0 keeps it "
+                        f"fixed at --mu-max (default {d.gamma:g}; the mu schedule, docs/glossary.md)")
     p.add_argument("--pocket", type=o.count0, default=None,
-                   help=f"pocket size P, 0 = off (default {d.pocket}; thesis 4)")
+                   help=f"keep only the best P controllers as parents of the next generation (0: all of them; "
+                        f"default {d.pocket}; the thesis used 4 of 20)")
     p.add_argument("--crossover", action=argparse.BooleanOptionalAction, default=None,
-                   help=f"cross-over instead of duplication (default {'on' if d.crossover else 'off'})")
+                   help=f"make each child from two parents (the first genes of one, the rest of the other) instead "
+                        f"of duplicating one (default {'on' if d.crossover else 'off'})")
     p.add_argument("--mutation", choices=MUTATIONS, default=None,
-                   help=f"gauss step or uniform redraw (default {d.mutation})")
-    p.add_argument("--sigma", type=o.nonneg, default=None, help=f"Gaussian mutation step (default {d.sigma})")
+                   help=f"how a mutated gene changes: gauss, a Gaussian step of sd --sigma; redraw, a new value "
+                        f"drawn uniformly in the search range [-0.8, 0.8] (default {d.mutation})")
+    p.add_argument("--sigma", type=o.nonneg, default=None,
+                   help=f"standard deviation of a Gaussian mutation's step, rad (default {d.sigma}; genes span 1.6)")
     p.add_argument("--init-spread", type=o.nonneg, default=None,
-                   help=f"initial genes: base + U(-s, s) (default {d.init_spread})")
+                   help=f"the first generation: every gene of the starting controller moved by a uniform amount in "
+                        f"[-s, s] (default {d.init_spread})")
     p.add_argument("--selection", choices=SELECTIONS, default=None,
-                   help=f"weights max(f,0) (clip, thesis) or f-min(f) (shift) (default {d.selection})")
+                   help=f"how fitness becomes the chance of being a parent when some fitness is negative: clip "
+                        f"(the thesis), in proportion to max(fitness, 0), a controller that does not move forward is "
+                        f"never a parent; shift, in proportion to fitness minus the generation's worst "
+                        f"(default {d.selection})")
     p.set_defaults(func=cmd_evolve)
 
     p = subparsers.add_parser("search", help="baseline search: random (Fig. 6.10), adaptive Monte Carlo "
@@ -83,11 +106,16 @@ def register(subparsers: Any) -> None:
     p.add_argument("--method", choices=METHODS + es.METHODS, default=None,
                    help=f"random or amc (the thesis's baselines), or an evolution strategy of evosax: "
                         f"{', '.join(es.METHODS)} (default {s.method})")
-    p.add_argument("--M", dest="M", type=o.count, default=None, help=f"amc: independent variables (default {s.M})")
-    p.add_argument("--samples", type=o.count, default=None, help=f"evaluation budget (default {s.samples})")
-    p.add_argument("--batch", type=o.count, default=None, help=f"evaluations per iteration (default {s.batch})")
+    p.add_argument("--M", dest="M", type=o.count, default=None,
+                   help=f"amc: independent searchers, each sampling a shrinking box around its own best "
+                        f"(default {s.M}; more explore, fewer refine)")
+    p.add_argument("--samples", type=o.count, default=None,
+                   help=f"evaluation budget: controllers scored in all (default {s.samples}, the GA's 20 x 150)")
+    p.add_argument("--batch", type=o.count, default=None,
+                   help=f"random, amc: controllers scored per iteration (default {s.batch})")
     p.add_argument("--width-end", type=o.positive, default=None,
-                   help=f"amc: final half-width of the sampling box (default {s.width_end})")
+                   help=f"amc: half-width of each searcher's sampling box at the last iteration; it shrinks "
+                        f"geometrically from the whole search range (default {s.width_end})")
     p.add_argument("--population", type=o.int_in(2, 1_000_000), default=None,
                    help=f"evolution strategies: samples per generation (default {e.population}; even for "
                         f"{' and '.join(es.ANTITHETIC)})")
@@ -99,7 +127,7 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_search)
 
     p = subparsers.add_parser("best", help="print the best controller of a run (and write it as a .ctl)")
-    p.add_argument("run", metavar="RUN.h5")
+    p.add_argument("run", metavar="RUN.h5", help="a run file written by evolve or search")
     p.add_argument("--ctl", default=None, metavar="OUT.ctl", help="write the controller as a thesis .ctl file")
     p.add_argument("--round", action="store_true",
                    help="round to the thesis's 6 decimals (default: exact float32 digits, so that "
@@ -113,11 +141,15 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_best)
 
     p = subparsers.add_parser("plot", help="fitness per generation of one or more runs (Fig. 6.5 style)")
-    p.add_argument("runs", nargs="+", metavar="RUN.h5")
-    p.add_argument("--out", default=None, metavar="FIG.png", help="figure file (default: first RUN with .png)")
-    p.add_argument("--x", choices=("auto", "generation", "evaluations"), default="auto")
+    p.add_argument("runs", nargs="+", metavar="RUN.h5", help="run files written by evolve, search or sweep")
+    p.add_argument("--out", default=None, metavar="FIG.png", help="the figure file written (default: the first RUN's "
+                                                                  "name with .png)")
+    p.add_argument("--x", choices=("auto", "generation", "evaluations"), default="auto",
+                   help="the x axis: generations, or evaluations (controllers scored so far); auto: evaluations "
+                        "when the runs differ in evaluations per generation, else generations (default auto)")
     p.add_argument("--no-cloud", action="store_true", help="lines only, no cloud of points")
-    p.add_argument("--title", default=None, help="figure title (default: the model and the episode length)")
+    p.add_argument("--title", default=None, help="the title above the figure (default: the model and the episode "
+                                                 "length)")
     p.set_defaults(func=cmd_plot)
 
 

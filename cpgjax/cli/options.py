@@ -133,9 +133,33 @@ def terrain(text: str) -> str:
     return text
 
 
+ON, OFF = ("1", "on", "true", "yes"), ("0", "off", "false", "no")
+
+
+def _perturbation(key: str, kind: object, value: str) -> bool | int | float:
+    """One ``--perturb`` value of the field ``key`` (annotated ``kind``), else ArgumentTypeError naming the rule."""
+    v = value.strip().lower()
+    if kind in (bool, "bool"):
+        if v not in ON + OFF:
+            raise argparse.ArgumentTypeError(f"{key}: expected on or off (1/0, true/false, yes/no), got {value!r}")
+        return v in ON
+    if key == "latency":
+        if v not in ("0", "1"):
+            raise argparse.ArgumentTypeError(f"latency: expected 0 or 1 (steps between observation and action), "
+                                             f"got {value!r}")
+        return int(v)
+    integer = kind in (int, "int")
+    what = "a whole number >= 1" if integer else "a finite number >= 0"
+    try:
+        return whole(v, what, 1) if integer else number(v, what, 0.0)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"{key}: expected {what}, got {value!r}") from None
+
+
 def perturbations(text: str) -> dict:
     """``KEY=VALUE,...`` ranges of the robust evaluation (cpgjax.episode.perturb.Perturbations), checked now;
-    ``preset=NAME`` starts from a named set of them (``domain``: domain randomisation)."""
+    ``preset=NAME`` starts from a named set of them (``domain``: domain randomisation).  A key given twice is
+    refused (which one would hold?)."""
     import dataclasses
 
     from cpgjax.episode.perturb import PRESETS, Perturbations
@@ -147,17 +171,14 @@ def perturbations(text: str) -> dict:
         key = key.strip().replace("-", "_")
         if not sep or key not in fields:
             raise argparse.ArgumentTypeError(f"expected KEY=VALUE with KEY in {', '.join(fields)}, got {item!r}")
+        if key in out:
+            raise argparse.ArgumentTypeError(f"{key} is given twice in {text!r}: give each key once")
         if key == "preset":
             if value.strip() not in PRESETS:
                 raise argparse.ArgumentTypeError(f"preset: expected one of {', '.join(PRESETS)}, got {value!r}")
             out[key] = value.strip()
             continue
-        try:
-            kind = fields[key]    # the annotation, a string under `from __future__ import annotations`
-            out[key] = (value.strip().lower() in ("1", "on", "true", "yes") if kind in (bool, "bool")
-                        else int(value) if kind in (int, "int") else float(value))
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{key}: expected a number, got {value!r}") from None
+        out[key] = _perturbation(key, fields[key], value)  # fields[key]: the annotation, maybe a string
     try:
         Perturbations.from_settings(out)
     except ValueError as e:
@@ -183,10 +204,14 @@ def controller_option(p: argparse.ArgumentParser) -> None:
     from cpgjax.episode.sensors import GROUPS
 
     p.add_argument("--controller", type=controller, default=None, metavar="FAMILY",
-                   help=f"{CONTROLLER_SYNTAX}: cpg, the thesis's open-loop CPG (default); pmtg, the CPG modulated by "
-                        f"a linear feedback policy reading the sensors (groups {', '.join(GROUPS)}: all but steer by "
-                        "default); :mirror after the groups, a mirror-symmetric genome (the right half evolved, the "
-                        "left derived) -- docs/evolution.md")
+                   help=f"{CONTROLLER_SYNTAX}: the kind of controller evolved. cpg: the thesis's open-loop CPG, a "
+                        "Fourier series per joint (the default). pmtg (policies modulating trajectory generators): "
+                        "the CPG modulated every step by a linear feedback policy reading the robot's sensors, "
+                        "which shifts each joint's target and speeds up, slows down or scales the CPG; GROUP+GROUP "
+                        f"names what it reads, of {', '.join(GROUPS)} (joint angles, body roll and pitch, their "
+                        "rates, foot contacts, the CPG's phase, a turning command, the command times the phase, a "
+                        "constant; default all but steer). :mirror: a mirror-symmetric genome, the right legs "
+                        "evolved and the left ones derived from them (docs/closed-loop.md, docs/glossary.md)")
 
 
 TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
@@ -228,29 +253,45 @@ def delta_option(p: argparse.ArgumentParser, of: str | None = None) -> None:
     from cpgjax.episode.fitness import DEFAULT_DELTA
 
     p.add_argument("--delta", type=positive, default=None if of else DEFAULT_DELTA,
-                   help=f"delta of the fitness, eq. 4.5 (default: {of or f'{DEFAULT_DELTA:g}'})")
+                   help=f"how much a tilted body's speed still counts: the fitness is the forward speed weighted "
+                        f"by delta cos^2(t) / ((delta - 1) cos^2(t) + 1), t the body's tilt from upright; 1 weighs "
+                        f"it by cos^2(t), larger values forgive a moderate tilt and punish only a body lying on its "
+                        f"side (default: {of or f'{DEFAULT_DELTA:g}'})")
 
 
 def seed_option(p: argparse.ArgumentParser, default: int | None = 0, what: str = "random seed",
                 shown: int | None = None) -> None:
     """``--seed N``; ``default=None`` with ``shown``: left to the config, whose default is ``shown``."""
-    p.add_argument("--seed", type=seed, default=default, help=f"{what} (default {default if shown is None else shown})")
+    p.add_argument("--seed", type=seed, default=default,
+                   help=f"{what}: the same seed gives the same numbers (default {default if shown is None else shown})")
 
 
 def evaluation_options(p: argparse.ArgumentParser) -> None:
     """``--evaluation thesis|robust`` and ``--perturb KEY=VALUE,...`` (cpgjax.episode.perturb; docs/evolution.md)."""
     p.add_argument("--evaluation", choices=("thesis", "robust"), default=None,
-                   help="thesis: one exact episode per controller (eq. 4.6, the default); robust: the mean of "
-                        "R episodes with fresh perturbations each generation (pose, terrain roughness, friction, "
-                        "masses, servo gains, gene jitter; a fall ends the fitness) -- docs/evolution.md")
+                   help="how a controller is scored. thesis: by one exact episode, its fitness averaged over time "
+                        "(the default). robust: by the mean of several episodes, each with random perturbations "
+                        "drawn anew every generation (start pose, rough ground, friction, masses, servo gains, gene "
+                        "jitter, ...: --perturb), a fall ending the episode's score; a gait must then walk in many "
+                        "worlds instead of being lucky in one (robust evaluation: docs/robust-evaluation.md, "
+                        "docs/glossary.md)")
     p.add_argument("--perturb", type=perturbations, default=None, metavar="KEY=VALUE,...",
-                   help="robust evaluation ranges, e.g. replicas=8,roughness=0.005 (defaults: replicas 4, "
-                        "lift 0.005 m, tilt 0.02 rad, roughness 0 m (e.g. 0.003: 1.8x slower), friction/mass/gain "
-                        "10/5/10 %%, jitter 1e-3, fall_ends on, fall_zero off: on, a fall forfeits the episode; "
-                        "fall_survival off: on, a fall scales the episode's score by the share of it "
-                        "before the fall; off: torque, stiffness, damping, relief, and for closed-loop controllers "
-                        "noise, latency, command (rad/s: steering) and speed (m/s: its score's cap)); "
-                        "preset=domain: domain randomisation (docs/evolution.md)")
+                   help=perturb_help())
+
+
+def perturb_help() -> str:
+    """``--perturb``'s help: every key of :class:`~cpgjax.episode.perturb.Perturbations` with its meaning and
+    default, and what each preset sets."""
+    from cpgjax.episode.perturb import MEANING, PRESET_MEANING, PRESETS, Perturbations
+
+    d = Perturbations()
+    show = lambda v: ("on" if v else "off") if isinstance(v, bool) else f"{v:g}"  # noqa: E731
+    keys = "; ".join(f"{k}={show(getattr(d, k))}: {MEANING[k]}" for k in MEANING)
+    presets = "; ".join(f"preset={n}: {PRESET_MEANING[n]}, it sets {', '.join(f'{k}={show(v)}' for k, v in p.items())}"
+                        for n, p in PRESETS.items())
+    return ("the ranges of --evaluation robust (given only with it), each key at most once, e.g. "
+            f"replicas=8,bristle=3. The keys, with their defaults: {keys}. {presets}; a key given beside a preset "
+            "overrides its value (docs/robust-evaluation.md, docs/glossary.md)")
 
 
 def run_file_options(p: argparse.ArgumentParser, what: str = "run", *, resume: bool = True) -> None:
@@ -258,10 +299,15 @@ def run_file_options(p: argparse.ArgumentParser, what: str = "run", *, resume: b
     results file; ``resume=False``: resuming is what the command does anyway (a sweep), only ``--overwrite``."""
     if resume:
         g = p.add_mutually_exclusive_group()
-        g.add_argument("--resume", action="store_true", help=f"continue the {what} in --out")
-        g.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+        g.add_argument("--resume", action="store_true",
+                       help=f"continue the {what} in --out where it stopped, with its recorded settings (options "
+                            "left out are the run's; one that changes a score is refused)")
+        g.add_argument("--overwrite", action="store_true",
+                       help="replace an existing --out (without it, an existing file is refused)")
     else:
-        p.add_argument("--overwrite", action="store_true", help=f"start every {what} anew")
+        p.add_argument("--overwrite", action="store_true",
+                       help=f"start every {what} anew, replacing its file (without it, complete runs are kept and "
+                            "partial ones continued)")
     p.add_argument("--allow-other-machine", action="store_true",
                    help=f"continue a {what} computed on another CPU or with other versions (refused otherwise: "
                         "the numbers would mix; the file records the switch, docs/reproducibility.md)")
@@ -269,14 +315,14 @@ def run_file_options(p: argparse.ArgumentParser, what: str = "run", *, resume: b
 
 def quiet_option(p: argparse.ArgumentParser) -> None:
     """``--quiet``: no progress bar."""
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="print no progress bar (the final summary still)")
 
 
 def dt_option(p: argparse.ArgumentParser) -> None:
     """``--dt SECONDS``: the integration step, else the model file's."""
     p.add_argument("--dt", type=step, metavar="SECONDS",
-                   help="integration step (default: the file's TimeStep, else 5e-4 s; with --pipeline exact "
-                        "its ExactTimeStep, else its TimeStep, else 2e-3 s)")
+                   help="the simulator's integration time step (default: the file's TimeStep, else 5e-4 s; with "
+                        "--pipeline exact its ExactTimeStep, else its TimeStep, else 2e-3 s)")
 
 PIPELINE_HELP = ("the physics pipeline: springs (the thesis's: every body free, each joint a stiff pivot spring, "
                  "eq. 3.6) or exact (generalized coordinates: a floating base and one angle per revolute joint, "

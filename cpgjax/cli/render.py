@@ -42,8 +42,9 @@ def register(subparsers: Any) -> None:
     r.add_argument("--out", help="output .mp4 or .gif (default: MODEL's name with .mp4, in the current folder)")
     r.add_argument("--fps", type=fps, default=30.0, help="frames per second of the video and of the recording "
                                                           "(default 30)")
-    r.add_argument("--size", type=size, default=(640, 480), help="WIDTHxHEIGHT of a picture (default 640x480; with "
-                                                                "--engine both the video is twice as wide)")
+    r.add_argument("--size", type=size, default=(640, 480),
+                   help="the size of a frame, WIDTHxHEIGHT in pixels (default 640x480; with --engine both the video "
+                        "is twice as wide)")
     r.add_argument("--camera", choices=("track", "fixed", "side"), default="track",
                    help="track: follow the robot; fixed: one view holding the whole path; side: from the right, "
                         "forward to the right (default track)")

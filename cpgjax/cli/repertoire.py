@@ -59,9 +59,10 @@ def register(subparsers: Any) -> None:
     d = MEConfig()
     p = subparsers.add_parser(
         "repertoire", help="a repertoire of gaits by MAP-Elites (quality-diversity; docs/repertoire.md)",
-        description="MAP-Elites over a grid of behaviour descriptors (each leg's duty factor, or forward speed x "
-                    "turning rate), computed online in the episode; every evaluation is written to an HDF5 run "
-                    "file, from which the archive is rebuilt exactly (--resume continues bit for bit).")
+        description="Build a repertoire of gaits by MAP-Elites (quality-diversity; docs/glossary.md): the best "
+                    "controller found for each cell of a grid of behaviour descriptors (each leg's duty factor, or "
+                    "forward speed x turning rate), computed online in the episode; every evaluation is written to "
+                    "an HDF5 run file, from which the archive is rebuilt exactly (--resume continues bit for bit).")
     o.model_argument(p)
     p.add_argument("--descriptor", choices=DESCRIPTORS, default=None,
                    help=f"duty: each leg's duty factor (Cully et al. 2015); speed-turn: forward speed (m/s) x "
@@ -74,7 +75,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--method", choices=METHODS, default=None,
                    help=f"map-elites: Gaussian mutation (Mouret & Clune 2015); iso-line: iso+line variation "
                         f"(Vassiliades & Mouret 2018) (default {d.method})")
-    p.add_argument("--evaluations", type=o.count, default=None, help=f"evaluation budget (default {d.evaluations})")
+    p.add_argument("--evaluations", type=o.count, default=None, help=f"evaluation budget: controllers scored in all "
+                                                                     f"(default {d.evaluations})")
     p.add_argument("--batch", type=o.count, default=None, help=f"children per generation (default {d.batch})")
     p.add_argument("--init-batches", type=o.count0, default=None,
                    help=f"generations of random genomes first (default {d.init_batches})")
@@ -85,7 +87,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--sigma-line", type=o.nonneg, default=None,
                    help=f"iso-line: std along the line between two elites (default {d.sigma_line:g})")
     p.add_argument("--qd-offset", type=o.finite, default=None,
-                   help=f"fitness lower bound of the QD-score (default {d.qd_offset:g})")
+                   help=f"the QD-score sums every elite's fitness minus this, a bound below any fitness, so that a "
+                        f"fuller repertoire scores more (default {d.qd_offset:g})")
     p.add_argument("--keep-fallen", action="store_true", default=None,
                    help="insert robots that fell too (body past 60 degrees; default: never, a fall is not a gait)")
     o.time_option(p, of=f"{DEFAULT_TIME:g} s, not the model file's")
@@ -95,8 +98,11 @@ def register(subparsers: Any) -> None:
                    help="build the repertoire on a damaged robot (leg=AR, locked=KneeAR, weak=HipPL:0.3; "
                         "docs/repertoire.md)")
     o.seed_option(p, None, shown=d.seed)
-    p.add_argument("--chunk", type=o.count, default=None, help=f"generations per jitted chunk (default {d.chunk})")
-    p.add_argument("--out", default=None, help="results file (default runs/MODEL-repertoire-sSEED.h5)")
+    p.add_argument("--chunk", type=o.count, default=None,
+                   help=f"generations compiled and run as one piece between writes to the run file; a kill loses at "
+                        f"most the piece in flight, and results do not depend on it (default {d.chunk})")
+    p.add_argument("--out", default=None, metavar="REP.h5",
+                   help="the repertoire's run file, every evaluation in it (default runs/MODEL-repertoire-sSEED.h5)")
     o.run_file_options(p, "repertoire")
     o.quiet_option(p)
     p.set_defaults(func=cmd_repertoire)
@@ -124,18 +130,22 @@ def register(subparsers: Any) -> None:
     p.add_argument("--ga-generations", type=o.count0, default=0,
                    help="study: generations of the GA from scratch on the damaged robot (population 20; 0: none)")
     p.add_argument("--trials", type=o.count, default=None,
-                   help=f"most trials (default {a.trials}; study: 50 with the stopping rule off, {a.trials} with it)")
+                   help=f"the most trials on the damaged robot before giving up (default {a.trials}; study: 50 with "
+                        f"the stopping rule off, {a.trials} with it)")
     p.add_argument("--alpha", type=o.fraction, default=None,
                    help=f"stop when the best trial reaches alpha x min(the best prediction + STOP_Z standard "
                         f"deviations, the repertoire's best) (default {a.alpha:g})")
     p.add_argument("--stop-z", type=o.nonneg, default=None, metavar="STOP_Z",
                    help=f"the stopping rule's confidence, in the GP's standard deviations (default {a.stop_z:g}; "
                         "0: Cully et al.'s rule, alpha x the best prediction)")
-    p.add_argument("--kappa", type=o.nonneg, default=None, help=f"UCB exploration weight (default {a.kappa:g})")
+    p.add_argument("--kappa", type=o.nonneg, default=None,
+                   help=f"how much the next trial favours elites the model is unsure of over those it predicts "
+                        f"good (the UCB exploration weight; default {a.kappa:g})")
     p.add_argument("--rho", type=o.positive, default=None,
                    help=f"Matern-5/2 length scale, in descriptor units (default {a.rho:g})")
     p.add_argument("--noise", type=o.positive, default=None,
-                   help=f"observation noise variance (default {a.noise:g})")
+                   help=f"the Gaussian process's observation noise variance: how much a trial's fitness may differ "
+                        f"from the truth (default {a.noise:g})")
     p.add_argument("--offset", action=argparse.BooleanOptionalAction, default=None,
                    help="the GP's prior mean is the repertoire's fitness plus an unknown constant, learnt from the "
                         "trials (a damage that lowers every gait is one shift, not a penalty on the tried "
@@ -161,14 +171,16 @@ def register(subparsers: Any) -> None:
                     "(docs/repertoire.md, Steering).")
     o.model_argument(p, help="robot description (.wl): the repertoire's, or the controllers'")
     src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--repertoire", metavar="REP.h5", help="a cpgjax repertoire (speed-turn)")
+    src.add_argument("--repertoire", metavar="REP.h5",
+                     help="a repertoire file built with --descriptor speed-turn: the gaits to choose from")
     src.add_argument("--ctl", action="append", metavar="CTL",
                      help="a closed-loop controller that reads the command (.ctl); repeat for several, each walks "
                           "every --path")
     p.add_argument("--path", required=True, action="append", metavar="SPEC",
                    help="square:SIDE | circle:RADIUS | figure8:RADIUS | line:LENGTH | points:X,Y;X,Y;... (m); "
                         "with --ctl repeat for several")
-    p.add_argument("--cycles", type=o.count, default=None, help="--repertoire: most gait cycles (default: 40)")
+    p.add_argument("--cycles", type=o.count, default=None,
+                   help="--repertoire: the most gait cycles walked (default: 40)")
     p.add_argument("--lookahead", type=o.int_in(0, 4096), default=None, metavar="K",
                    help="candidate gaits simulated ahead every cycle, in one batch (default: 64); 0: no "
                         "look-ahead, the gait whose turning rate is nearest the wanted one")
@@ -193,13 +205,15 @@ def register(subparsers: Any) -> None:
     p.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="--engine mujoco|both: MuJoCo C's integration step (default: the export's, 2 ms; on rough "
                         "ground use 0.00025, as for transfer: docs/crosscheck.md)")
-    p.add_argument("--video", default=None, metavar="OUT.mp4", help="render the walk (--ctl: one controller, one path)")
+    p.add_argument("--video", default=None, metavar="OUT.mp4",
+                   help="render the walk to this video file (.mp4 or .gif; --ctl: one controller, one path)")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
     p.set_defaults(func=cmd_follow)
 
     p = subparsers.add_parser("repertoire-plot", help="a repertoire's heatmap, coverage and QD-score per evaluation")
-    p.add_argument("repertoire", metavar="REP.h5")
-    p.add_argument("--out", default=None, metavar="FIG.png", help="figure file (default: REP with .png)")
+    p.add_argument("repertoire", metavar="REP.h5", help="a repertoire file written by cpgjax repertoire")
+    p.add_argument("--out", default=None, metavar="FIG.png", help="the figure file written (default: REP's name with "
+                                                                  ".png)")
     p.set_defaults(func=cmd_plot)
 
 

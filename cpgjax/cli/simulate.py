@@ -18,18 +18,20 @@ def register(subparsers: Any) -> None:
     s.add_argument("--ctl", help="controller (.ctl); without it every servo holds angle 0")
     o.time_option(s, of=o.CTL_OR_FILE)
     o.terrain_option(s, of=o.CTL_OR_FILE)
-    s.add_argument("--log", metavar="DIR", help="write one thesis-format log per Log statement into DIR")
+    s.add_argument("--log", metavar="DIR",
+                   help="write one thesis-format log per Log statement into DIR (default: no logs)")
     o.dt_option(s)
     o.pipeline_option(s, o.CTL_PIPELINE)
-    s.add_argument("--gravity", type=o.finite, help="gravity [m/s^2] (default: the file's, 9.81)")
+    s.add_argument("--gravity", type=o.finite, help="the acceleration of gravity pulling every body down, m/s^2 "
+                                                    "(default: the model file's Gravity, else 9.81)")
     o.delta_option(s)
     s.set_defaults(func=cmd_simulate)
 
     r = subparsers.add_parser("robustness",
                               help="replay a controller with its genes jittered: mean and spread of fitness")
     o.model_argument(r)
-    r.add_argument("--ctl", required=True, help="controller (.ctl)")
-    r.add_argument("--n", type=o.count, default=64, help="replays per jitter (default 64)")
+    r.add_argument("--ctl", required=True, help="the controller file (.ctl) replayed")
+    r.add_argument("--n", type=o.count, default=64, help="replays at each --jitter value (default 64)")
     r.add_argument("--jitter", type=o.list_of(o.nonneg, "expected numbers >= 0, e.g. 1e-6,1e-4"),
                    default=[1e-6, 1e-4, 1e-2], help="standard deviations of the gene offsets (default 1e-6,1e-4,1e-2)")
     o.time_option(r, of=o.CTL_OR_FILE)

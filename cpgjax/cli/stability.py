@@ -38,19 +38,25 @@ def register(subparsers: Any) -> None:
                    help="a model with --ctl controllers, or run files / sweep folders (population study)")
     s.add_argument("--ctl", nargs="+", default=[], help="controllers (.ctl) to test on MODEL.wl")
     s.add_argument("--bump", type=_heights, default=list(d.bumps),
-                   help="bump heights across the path halfway, m (default 0.01,0.02,0.03 as the thesis; none)")
+                   help="heights of a bump across the path halfway, m (default 0.01,0.02,0.03 as the thesis; none: no "
+                        "bump)")
     s.add_argument("--rough", type=_heights, default=list(d.roughs),
-                   help="roughness ranges, m (default 0.01,0.02,0.03,0.04 as the thesis; none)")
+                   help="ranges of rough ground to walk on, m: heights uniform from 0 to each (default "
+                        "0.01,0.02,0.03,0.04 as the thesis; none: no rough ground)")
     s.add_argument("--seeds", type=o.count, default=d.seeds, help=f"rough fields per range (default {d.seeds})")
     s.add_argument("--bump-width", type=o.positive, default=d.bump_width,
                    help=f"bump length along the path, m (default {d.bump_width:g})")
     o.time_option(s, of=o.RUN_OR_FILE)
-    s.add_argument("--delta", type=o.positive, default=d.delta, help=f"delta of S(θ), eq. 6.2 (default {d.delta:g})")
+    s.add_argument("--delta", type=o.positive, default=d.delta,
+                   help=f"delta of the vestibular stability S = delta cos^2(t) / ((delta - 1) cos^2(t) + 1), t the "
+                        f"body's tilt from upright: 1 upright, 0 on its side; a robot has fallen when S drops below "
+                        f"its value at 60 degrees (default {d.delta:g})")
     s.add_argument("--which", choices=("final", "best"), default="final",
-                   help="population study: each run's final population, or its best of each generation")
+                   help="population study: each run's final population, or its best of each generation (default final)")
     s.add_argument("--top", type=o.count, help="population study: only the TOP fittest of those per run")
     s.add_argument("--block", type=o.count, default=d.block, help=f"robots per compiled call (default {d.block})")
-    s.add_argument("--out", default=os.path.join("runs", "stability"), help="output folder (default runs/stability)")
+    s.add_argument("--out", default=os.path.join("runs", "stability"), help="folder for the tables and figures "
+                                                                            "(default runs/stability)")
     s.add_argument("--json", action="store_true", help="print one JSON object of summary figures")
     o.pipeline_option(s, "the model file's Pipeline, else springs; for run files, the runs', as they recorded")
     s.set_defaults(func=cmd_stability)

@@ -73,22 +73,35 @@ def register(subparsers: Any) -> None:
                     "program (one simulator call per generation for all runs); one HDF5 per run under "
                     "OUT/<cell>/s<seed>.h5; resumable (complete runs are skipped, partial ones continued).")
     o.model_argument(p, help="robot description (.wl) or analytic:sphere:G (test/demo)")
-    p.add_argument("--out", required=True, help="sweep directory (runs/NAME/)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="the sweep's folder, one run file per setting and seed in it (e.g. runs/NAME/)")
     p.add_argument("--preset", choices=("full", "tiny"), default=None,
-                   help="the thesis experiment of Fig. 6.5-6.12 (cpgjax.experiments.sweep.SCALES); "
-                        "other grid options ignored")
-    p.add_argument("--gamma", type=_floats, help=f"comma list of γ (eq. 6.1), default {d.gamma:g}")
-    p.add_argument("--pocket", type=_pockets, help=f"comma list of pocket sizes P (0 = off), default {d.pocket}")
+                   help="run the thesis's experiment of Figs. 6.5-6.12, every GA setting and baseline it compares: "
+                        "full at the thesis's scale, tiny a toy version of it; the other grid options are then "
+                        "ignored (default: the grid the options give)")
+    p.add_argument("--gamma", type=_floats,
+                   help=f"comma list of mutation-rate decays: mu = mu_max / (1 + gamma x generation), 0 fixed "
+                        f"(default {d.gamma:g}; see evolve --gamma)")
+    p.add_argument("--pocket", type=_pockets, help=f"comma list of pocket sizes P: only the best P are parents (0: "
+                                                   f"all; default {d.pocket})")
     p.add_argument("--crossover", type=_bools,
-                   help=f"comma list of on/off, default {'on' if d.crossover else 'off'}")
-    p.add_argument("--population", type=_counts, help=f"comma list of population sizes, default {d.population}")
-    p.add_argument("--generations", type=o.count, help=f"generations per GA run, default {d.generations}")
-    p.add_argument("--mu-max", type=o.fraction, help=f"mutation rate at generation 0 (eq. 6.1), default {d.mu_max}")
-    p.add_argument("--mutation", choices=MUTATIONS, help=f"how a mutated gene changes, default {d.mutation}")
-    p.add_argument("--sigma", type=o.nonneg, help=f"std of the Gaussian mutation step, default {d.sigma}")
+                   help=f"comma list of on/off: children by cross-over of two parents, or duplicates of one "
+                        f"(default {'on' if d.crossover else 'off'})")
+    p.add_argument("--population", type=_counts, help=f"comma list of population sizes, controllers per generation "
+                                                      f"(default {d.population})")
+    p.add_argument("--generations", type=o.count, help=f"generations per GA run (default {d.generations}; the "
+                                                       f"baselines get the same evaluations)")
+    p.add_argument("--mu-max", type=o.fraction, help=f"mutation rate at the start, the chance a gene changes "
+                                                     f"(default {d.mu_max})")
+    p.add_argument("--mutation", choices=MUTATIONS,
+                   help=f"how a mutated gene changes: gauss, a Gaussian step of sd --sigma; redraw, uniform in the "
+                        f"search range (default {d.mutation})")
+    p.add_argument("--sigma", type=o.nonneg, help=f"standard deviation of the Gaussian mutation step, rad (default "
+                                                  f"{d.sigma})")
     p.add_argument("--selection", choices=SELECTIONS,
-                   help=f"reading of 'probability ∝ fitness', default {d.selection}")
-    p.add_argument("--no-ga", action="store_true", help="baselines only")
+                   help=f"how fitness becomes the chance of being a parent: clip, in proportion to max(fitness, 0) "
+                        f"(the thesis); shift, to fitness minus the generation's worst (default {d.selection})")
+    p.add_argument("--no-ga", action="store_true", help="run the --baselines only, no GA run")
     p.add_argument("--baselines", help="comma list of random, amc3, amc5, amc10, ... and the evolution strategies "
                                        "cmaes, sep_cmaes, openes, pgpe, snes (default none)")
     p.add_argument("--es-population", type=_es_counts,
@@ -98,19 +111,23 @@ def register(subparsers: Any) -> None:
                                                        f"(default {e.sigma:g})")
     p.add_argument("--es-lr", type=_positives, help=f"openes and pgpe: comma list of optax.adam learning rates "
                                                     f"(default {e.lr:g})")
-    p.add_argument("--samples", type=o.count, help="baseline budget (default population x generations)")
+    p.add_argument("--samples", type=o.count, help="evaluation budget of each baseline run (default population x "
+                                                   "generations, the GA's)")
     p.add_argument("--seeds", type=_seeds,
-                   help=f"{DEFAULT_SEEDS} (= seeds 0..{DEFAULT_SEEDS - 1}, the default), a comma list 3,7,9 "
-                        "or a range 10:15")
+                   help=f"the seeds every setting runs with: a count N (seeds 0..N-1; default {DEFAULT_SEEDS}), a "
+                        "comma list 3,7,9 or a range 10:15")
     o.time_option(p)
     o.terrain_option(p)
     o.delta_option(p, of=f"{DEFAULT_DELTA:g}")
     o.evaluation_options(p)
     o.pipeline_option(p, "the model file's Pipeline, else springs; every run of a sweep folder has one")
     o.controller_option(p)
-    p.add_argument("--chunk", type=o.count, default=d.chunk, help=f"generations per jitted chunk (default {d.chunk})")
+    p.add_argument("--chunk", type=o.count, default=d.chunk,
+                   help=f"generations compiled and run as one piece between writes to the run file; a kill loses at "
+                        f"most the piece in flight, and results do not depend on it (default {d.chunk})")
     p.add_argument("--group", choices=("all", "kind"), default="all",
-                   help="all runs in one program (default) or one program per group of same-shaped runs")
+                   help="all: every run in one compiled program (default); kind: one program per group of runs of the "
+                        "same shape")
     p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="run the sweep's shards as Ray tasks (pip install -e .[cluster]): without ADDRESS on a "
                         "local Ray instance, with one (e.g. 10.0.0.1:6379 or auto) on that cluster; OUT must be "
@@ -124,8 +141,8 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_sweep)
 
     p = subparsers.add_parser("report", help="summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)")
-    p.add_argument("sweep", metavar="runs/NAME/")
-    p.add_argument("--out", default=None, help="markdown file (default runs/NAME/report.md)")
+    p.add_argument("sweep", metavar="runs/NAME/", help="a sweep folder written by cpgjax sweep")
+    p.add_argument("--out", default=None, help="the markdown report written (default runs/NAME/report.md)")
     p.add_argument("--fig-6-12", default=None, metavar="FIG.png",
                    help="also draw Fig. 6.12 of the sweep: every GA setting (A) and every search and evolution "
                         "strategy (B) on one fitness scale, x in evaluations")
@@ -137,14 +154,19 @@ def register(subparsers: Any) -> None:
                     "outputs under runs/notebooks/ (the notebook in notebooks/ is left as it is unless --out names "
                     "it).  notebooks/thesis_figures.ipynb runs the sweep if its results are missing, then draws Fig. "
                     "6.5-6.12 and the claims table; each notebook's first cell says what its scales run.")
-    p.add_argument("notebook", metavar="NOTEBOOK.ipynb")
+    p.add_argument("notebook", metavar="NOTEBOOK.ipynb", help="the notebook to run, e.g. "
+                                                              "notebooks/thesis_figures.ipynb")
     p.add_argument("--scale", choices=("tiny", "full"), default=None,
                    help="sets CPGJAX_SCALE for the notebook: tiny, seconds to a minute, every cell run on a toy "
                         "problem (what the tests run; its results mean nothing); full, the experiment as the "
                         "results pages report it (minutes to an hour; figures into docs/figures/). Default: the "
                         "notebook's own (tiny)")
-    p.add_argument("--sweep-dir", default=None, help="sets CPGJAX_SWEEP_DIR (default: the notebook's choice)")
-    p.add_argument("--fig-dir", default=None, help="sets CPGJAX_FIG_DIR (default: the notebook's choice)")
+    p.add_argument("--sweep-dir", default=None,
+                   help="the folder of the sweep the notebook reads or runs (sets CPGJAX_SWEEP_DIR; default: the "
+                        "notebook's choice)")
+    p.add_argument("--fig-dir", default=None,
+                   help="the folder the notebook's figures are written to (sets CPGJAX_FIG_DIR; default: the "
+                        "notebook's choice)")
     p.add_argument("--pipeline", choices=PIPELINES, default=None,
                    help=f"sets CPGJAX_PIPELINE: {o.PIPELINE_HELP} (default: the notebook's, the models' own)")
     p.add_argument("--out", default=None, metavar="OUT.ipynb",

@@ -23,7 +23,8 @@ def register(subparsers: Any) -> None:
     o.time_option(b, of="2 s; --table-a1: each example's time in the thesis; the model file's TimeMax is not used")
     b.add_argument("--chunk", type=o.count, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
-    b.add_argument("--against", choices=["mjx"], help="the same robot in MJX (and MuJoCo C) side by side")
+    b.add_argument("--against", choices=["mjx"],
+                   help="also time the same robot in MJX (and MuJoCo C), side by side (default: ours only)")
     b.add_argument("--sweep", action="store_true",
                    help="evaluations/s of one GA run vs the thesis sweep (cpgjax sweep --preset full) in one program")
     b.add_argument("--generations", type=o.count, default=5, help="--sweep: generations per run (default 5)")
@@ -45,7 +46,7 @@ def register(subparsers: Any) -> None:
     d = subparsers.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
     o.model_argument(d, optional=True)
     d.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
-                   help="the walking controller (default: the hand-written trot)")
+                   help="the walking controller (.ctl) run at every step size (default: the hand-written trot)")
     d.add_argument("--dts", type=o.list_of(o.step, "expected time steps in (0, 0.05] s"),
                    default=[1e-4, 2e-4, 3e-4, 5e-4, 7e-4, 1e-3, 1.5e-3],
                    help="comma-separated time steps (default 1e-4,2e-4,3e-4,5e-4,7e-4,1e-3,1.5e-3)")
@@ -58,9 +59,10 @@ def register(subparsers: Any) -> None:
                                                      "with MuJoCo C (docs/simulator.md)")
     o.model_argument(f, optional=True)
     f.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
-                   help="the controller to jitter (default: the hand-written trot)")
+                   help="the controller (.ctl) replayed with its genes jittered (default: the hand-written trot)")
     f.add_argument("--springs", type=_springs, default=[(1e3, 300.0), (1e4, 1e3), (1e5, 300.0), (1e5, 1e3)],
-                   help="bristles K:B, comma-separated (default 1e3:300,1e4:1e3,1e5:300,1e5:1e3; "
+                   help="the friction bristles compared, each spring stiffness K and damping B as K:B, "
+                        "comma-separated (default 1e3:300,1e4:1e3,1e5:300,1e5:1e3; "
                         "the simulator's default is 1e3:300)")
     f.add_argument("--runs", nargs="*", default=[], metavar="RUN.h5|SWEEP_DIR",
                    help="evolved runs: their bests are replayed here and in MuJoCo C")

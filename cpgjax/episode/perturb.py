@@ -126,6 +126,35 @@ class Perturbations:
         return Perturbations(**({**PRESETS[name], **s} if name else s))
 
 
+#: What each range does, its unit and the values it takes (``--perturb``'s help, :mod:`cpgjax.cli.options`).
+MEANING = {
+    "replicas": "episodes per controller and generation, each with its own draws (a whole number >= 1)",
+    "lift": "the robot starts lifted or lowered by up to this, m",
+    "tilt": "the robot starts rolled and pitched by up to this, rad",
+    "roughness": "rough ground: heights from 0 to this added to the terrain, m (0: the terrain as it is; "
+                 "> 0 makes an episode 1.8x slower)",
+    "friction": "the ground's friction scaled by 1 + U(-x, x) (relative, < 1; so are mass, gain, torque, stiffness "
+                "and damping)",
+    "mass": "each body's mass and inertia scaled by 1 + U(-x, x)",
+    "gain": "each servo's PID gains scaled by 1 + U(-x, x)",
+    "jitter": "every gene moved by noise of this standard deviation, rad",
+    "bristle": "the foot's friction spring made up to 10^x times stiffer, in decades (e.g. 3: a gait must then walk "
+               "on any foot from soft to stiff, which is what carries over to MuJoCo)",
+    "torque": "each servo's torque limit scaled by 1 + U(-x, x)",
+    "stiffness": "the ground's stiffness scaled by 1 + U(-x, x)",
+    "damping": "the ground's damping scaled by 1 + U(-x, x)",
+    "relief": "with roughness: each episode's ground flattened by a random share up to this, 0 to 1 (1: anywhere "
+              "from flat to fully rough)",
+    "noise": "closed-loop controllers only: sensor noise, its standard deviation in each sensor's typical size",
+    "latency": "closed-loop controllers only: 0 or 1 step between sensing and acting",
+    "command": "closed-loop controllers that read the command only: a turning rate drawn up to +-x rad/s for each "
+               "half of the episode, the score how well the robot follows it (steering)",
+    "speed": "with command: the steering score credits speed up to this, m/s (0: no cap)",
+    "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
+    "fall_zero": "when on, a fall forfeits the episode, it scores 0",
+    "fall_survival": "when on, a fall scales the episode's score by the share of it before the fall",
+}
+
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0, "latency": 0,
          "command": 0.0, "speed": 0.0}
@@ -133,10 +162,24 @@ LATER = {"torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise"
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the
 #: ground's stiffness and damping +-50 %, the foot's bristle up to 3 decades stiffer, falls scaling the score.
+PRESET_MEANING = {"domain": "domain randomisation, every kind of variation at once and wide"}
 PRESETS = {
     "domain": {"roughness": 0.04, "relief": 1.0, "friction": 0.3, "mass": 0.1, "gain": 0.2, "torque": 0.2,
                "stiffness": 0.5, "damping": 0.5, "bristle": 3.0, "fall_survival": True},
 }
+
+
+def check_controller(p: Perturbations, family) -> None:
+    """Refuse ranges that ``family`` (a :class:`cpgjax.episode.policy.Family`; None: the open-loop CPG) cannot
+    feel, rather than ignore them: sensor ``noise`` and ``latency`` need a controller that reads sensors, a
+    ``command`` one that reads the command (ValueError naming the key)."""
+    for key, what in (("noise", "sensor noise"), ("latency", "a sensor latency")):
+        if family is None and getattr(p, key):
+            raise ValueError(f"perturbation {key}: the open-loop CPG reads no sensor, so {what} would change "
+                             "nothing; it applies to a closed-loop controller (--controller pmtg, docs/closed-loop.md)")
+    if p.command > 0 and (family is None or "command" not in family.inputs):
+        raise ValueError("perturbation command: the controller must read the command (--controller "
+                         "pmtg:...+command+..., e.g. pmtg:tilt+contact+command+steer+bias)")
 
 
 def roughened(terrain: Terrain, roughness: float) -> Terrain:

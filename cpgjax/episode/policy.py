@@ -112,7 +112,7 @@ def parse_controller(text: str | None) -> Family | None:
     """``--controller`` text to a :class:`Family`; ``None`` (or ``cpg``) is the thesis's open-loop CPG."""
     if text is None:
         return None
-    name, _, rest = str(text).strip().partition(":")
+    name, sep, rest = str(text).strip().partition(":")
     name = name.lower()
     if name == "cpg" and not rest:
         return None
@@ -120,6 +120,9 @@ def parse_controller(text: str | None) -> Family | None:
         raise ValueError(f"unknown controller {text!r}; expected {CONTROLLER_SYNTAX}")
     if name == "cpg":
         raise ValueError(f"controller {text!r}: the open-loop CPG takes no inputs; expected {CONTROLLER_SYNTAX}")
+    if sep and not rest.partition(":")[0].strip():             # pmtg: or pmtg::mirror: an empty list of groups
+        raise ValueError(f"controller {text!r}: an empty list of sensor groups; name them (e.g. "
+                         f"pmtg:tilt+contact+bias), or leave the list out for the default ones (pmtg, pmtg:mirror)")
     rest, _, option = rest.partition(":")
     if not option and rest.strip().lower() == "mirror":          # pmtg:mirror: the default groups, mirrored
         rest, option = "", "mirror"

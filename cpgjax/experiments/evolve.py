@@ -167,7 +167,10 @@ _META_IGNORED = ("model_path", "cli_problem_args")
 _META_OPTIONS = {"evaluation": ("--evaluation", "evaluation", ""), "pipeline": ("--pipeline", "physics pipeline", ""),
                  "time": ("--time", "episode length", " s"), "terrain": ("--terrain", "terrain", ""),
                  "delta": ("--delta", "delta of the fitness", ""), "replicas": ("--replicas", "replicas", ""),
-                 "jitter": (None, "replicas' jitter", ""), "dt": ("--dt", "time step", " s")}
+                 "jitter": (None, "replicas' jitter", ""), "dt": ("--dt", "time step", " s"),
+                 "controller": ("--controller", "controller", ""), "start": ("--start", "starting controller", ""),
+                 "perturbations": ("--perturb", "perturbation ranges", "")}
+_GIVEN_AS = {"perturbations": "perturb"}     # meta key -> its key in cli_problem_args, where they differ
 _FIX = "(drop the option, or start anew with --overwrite)"
 
 
@@ -179,6 +182,18 @@ def _fmt(v: Any, unit: str = "") -> str:
     return f"{v}{unit}" if not isinstance(v, str) or v else "''"
 
 
+def _show(k: str, v: Any, unit: str = "", other: Any = None) -> str:
+    """A stored or new setting ``k`` as the command line spells it (``other``: the value it is compared with)."""
+    if k == "controller":
+        return v or "cpg"
+    if k == "start":
+        return json.loads(v).get("path", "?") if isinstance(v, str) else "none (the thesis's sinusoids)"
+    if k == "perturbations" and isinstance(v, dict) and isinstance(other, dict):   # the keys that differ
+        return ",".join(f"{n}={_fmt(v.get(n, 'unset'))}" for n in sorted(set(v) | set(other))
+                        if v.get(n) != other.get(n))
+    return _fmt(v, unit)
+
+
 def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
     """Refuse to continue a run whose stored settings differ from these in anything that changes a fitness.
 
@@ -188,18 +203,21 @@ def _check_resume(path: str, algo: Algorithm, problem: Problem) -> None:
     """
     a = read_attrs(path)
     if a.get("kind") != algo.kind:
-        raise ResultsError(f"{path}: cannot resume: it holds a {a.get('kind')!r} run, not {algo.kind!r} "
-                           "(choose another --out, or start anew with --overwrite)")
+        kind = a.get("kind")
+        what = (f"--method {algo.kind} differs from the run's {kind}" if "ga" not in (kind, algo.kind) else
+                f"it holds a {'GA' if kind == 'ga' else repr(kind)} run, not a "
+                f"{'GA' if algo.kind == 'ga' else repr(algo.kind)} one")
+        raise ResultsError(f"{path}: cannot resume: {what} (choose another --out, or start anew with --overwrite)")
     stored = json.loads(a["config"])
     for k, v in algo.config.items():
         if k not in algo.resumable_changes and stored.get(k) != v:
             raise ResultsError(f"{path}: cannot resume: --{k.replace('_', '-')} {_fmt(v)} differs from the "
                                f"run's {_fmt(stored.get(k, 'unset'))} {_FIX}")
+    check_problem(path, problem, a)     # first: a setting that differs (--controller, the model) explains the sizes
     if int(a["n_genes"]) != problem.n_genes or int(a["population"]) != algo.population:
         raise ResultsError(f"{path}: cannot resume: genome or population size differs from the stored run "
                            f"({problem.n_genes} genes x {algo.population} vs the run's {int(a['n_genes'])} x "
                            f"{int(a['population'])}) {_FIX}")
-    check_problem(path, problem, a)
 
 
 def check_problem(path: str, problem: Problem, attrs: dict | None = None, verb: str = "resume") -> None:
@@ -216,18 +234,19 @@ def check_problem(path: str, problem: Problem, attrs: dict | None = None, verb: 
         old["pipeline"] = "springs"
     differ = [k for k in (set(old) | set(new)) - set(_META_IGNORED) if old.get(k) != new.get(k)]
     # first what an option given now changes, then the model file, then whatever else differs
-    for k in [k for k in _META_OPTIONS if k in differ and _META_OPTIONS[k][0] and given.get(k) is not None]:
+    for k in [k for k in _META_OPTIONS
+              if k in differ and _META_OPTIONS[k][0] and given.get(_GIVEN_AS.get(k, k)) is not None]:
         option, _, unit = _META_OPTIONS[k]
-        raise ResultsError(f"{path}: cannot {verb}: {option} {_fmt(new.get(k))} differs from the run's "
-                           f"{_fmt(old.get(k), unit)} {fix}")
+        raise ResultsError(f"{path}: cannot {verb}: {option} {_show(k, new.get(k), '', old.get(k))} differs from "
+                           f"the run's {_show(k, old.get(k), unit, new.get(k))} {fix}")
     if "model_text" in differ and old.get("model_text") and new.get("model_text"):
         raise ResultsError(f"{path}: cannot {verb}: the model file {new.get('model_path', '')} changed since the "
                            "run started " + ("(restore it, or start anew with --overwrite)" if verb == "resume"
                                              else fix))
     for k in [k for k in _META_OPTIONS if k in differ] + sorted(set(differ) - set(_META_OPTIONS) - {"model_text"}):
         _, what, unit = _META_OPTIONS.get(k, (None, k, ""))
-        raise ResultsError(f"{path}: cannot {verb}: the {what} {_fmt(new.get(k), unit)} differs from the run's "
-                           f"{_fmt(old.get(k), unit)} {fix}")
+        raise ResultsError(f"{path}: cannot {verb}: the {what} {_show(k, new.get(k), unit, old.get(k))} differs "
+                           f"from the run's {_show(k, old.get(k), unit, new.get(k))} {fix}")
 
 
 def _check_machine(path: str, completed: int, allow: bool) -> None:

@@ -373,6 +373,15 @@ def _decode(v: Any) -> Any:
 
 
 NOT_A_RUN = "is not a readable cpgjax run"
+START_ANEW = "start anew with --overwrite, or name another file"
+
+
+class UnreadableRun(ResultsError):
+    """Not a readable run; its ``advice`` (``--overwrite``) is added only by the commands that have that option."""
+
+    def __init__(self, message: str, advice: str):
+        super().__init__(message)
+        self.advice = advice
 
 
 def _open(path: str | os.PathLike[str], mode: str = "r") -> h5py.File:
@@ -389,8 +398,7 @@ def _open(path: str | os.PathLike[str], mode: str = "r") -> h5py.File:
     except PermissionError:
         raise ResultsError(f"{p}: cannot {'read' if mode == 'r' else 'write'}: permission denied") from None
     except OSError as e:
-        raise ResultsError(f"{p}: {NOT_A_RUN} (HDF5: {_reason(e)}); start anew with --overwrite, "
-                           "or name another file") from None
+        raise UnreadableRun(f"{p}: {NOT_A_RUN} (HDF5: {_reason(e)})", START_ANEW) from None
 
 
 def read_attrs(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -407,17 +415,17 @@ def _read_attrs(p: str) -> dict[str, Any]:
 
 def _check(f: h5py.File, path: Any) -> None:
     if f.attrs.get("format") != FORMAT:
-        raise ResultsError(f"{os.fspath(path)} {NOT_A_RUN}: it is an HDF5 file without the attribute "
-                           f"format = {FORMAT!r}; start anew with --overwrite, or name another file")
+        raise UnreadableRun(f"{os.fspath(path)} {NOT_A_RUN}: it is an HDF5 file without the attribute "
+                            f"format = {FORMAT!r}", START_ANEW)
     missing = [k for k in ("kind", "config", "completed", "population", "n_genes") if k not in f.attrs]
     if missing:
-        raise ResultsError(f"{os.fspath(path)} {NOT_A_RUN}: attributes {', '.join(missing)} are missing; "
-                           "start anew with --overwrite")
+        raise UnreadableRun(f"{os.fspath(path)} {NOT_A_RUN}: attributes {', '.join(missing)} are missing",
+                            START_ANEW)
 
 
 def _unreadable(p: str, what: str, e: BaseException, last_ok: int | None = None) -> ResultsError:
     hint = (f"the last readable generation is {last_ok - 1}" if last_ok else "no generation can be read")
-    return ResultsError(f"{p}: {what} cannot be read (HDF5: {_reason(e)}); {hint}; start anew with --overwrite")
+    return UnreadableRun(f"{p}: {what} cannot be read (HDF5: {_reason(e)}); {hint}", START_ANEW)
 
 
 READ_TRIES = 10        # a file being written: tries to read a consistent state (0.2 s apart) before giving up

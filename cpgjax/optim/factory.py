@@ -20,7 +20,7 @@ from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.episode.mirror import MirrorError
-from cpgjax.episode.perturb import Perturbations, commands, draw, noise_key, roughened
+from cpgjax.episode.perturb import Perturbations, check_controller, commands, draw, noise_key, roughened
 from cpgjax.episode.policy import Family, from_control, from_genomes, from_table, parse_controller, to_genome
 from cpgjax.episode.policy import base_genome as policy_base
 from cpgjax.io.wl import load_model
@@ -56,6 +56,8 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
         raise ValueError("perturbation ranges apply to the robust evaluation only (add --evaluation robust)")
     robust = Perturbations.from_settings(perturb) if evaluation == "robust" else None
     family = parse_controller(controller)
+    if robust is not None:
+        check_controller(robust, family)
     if model.startswith("analytic:"):
         if pipeline is not None:
             raise ValueError(f"{model}: a physics pipeline applies to a simulated model (.wl) only")
@@ -211,9 +213,7 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
     G = model.n_genes if family is None else family.n_genes(model)
     sensing = {} if family is None else {"latency": p.latency, "noise": p.noise}
     lo, hi = -0.8, 0.8
-    if p.command > 0 and (family is None or "command" not in family.inputs):
-        raise ValueError("perturbation command: the controller must read the command (--controller "
-                         "pmtg:...+command+..., e.g. pmtg:tilt+contact+command+steer+bias)")
+    check_controller(p, family)     # ranges the controller cannot feel (sensor noise for the CPG, ...) refused
     if p.command > 0:   # the schedule switches at the log sample nearest the episode's middle
         from cpgjax.episode.rollout import schedule
 

@@ -66,7 +66,7 @@ def test_perturb_values_are_read_by_the_type_of_their_field():
     got = perturbations("replicas=3, fall_survival=on, fall-ends=off, jitter=1e-4")
     assert got == {"replicas": 3, "fall_survival": True, "fall_ends": False, "jitter": 1e-4}
     assert type(got["replicas"]) is int and type(got["jitter"]) is float
-    for bad, why in (("replicas=2.5", "replicas: expected a number"), ("mass=2", "must be < 1"),
+    for bad, why in (("replicas=2.5", "replicas: expected a whole number"), ("mass=2", "must be < 1"),
                      ("fall_zero=on,fall_survival=on", "exclude each other"), ("wind=3", "KEY in")):
         with pytest.raises(argparse.ArgumentTypeError, match=why):
             perturbations(bad)
