@@ -20,7 +20,9 @@ def register(subparsers: Any) -> None:
     b.add_argument("--batches", type=batches, default=None,
                    help=f"comma-separated batch sizes (default {','.join(map(str, DEFAULT_BATCHES))}; --against: "
                         f"{','.join(map(str, AGAINST_BATCHES))}, the thesis's population beside large batches)")
-    o.time_option(b, of="2 s; --table-a1: each example's time in the thesis; the model file's TimeMax is not used")
+    b.add_argument("--time", type=o.seconds, default=None, metavar="SECONDS",
+                   help="simulated seconds per episode (default: 2 s; with --table-a1 each example's time in the "
+                        "thesis; the model file's TimeMax is not used)")
     b.add_argument("--chunk", type=o.count, default=256, help="robots per vectorised chunk (default 256)")
     b.add_argument("--tricks", action="store_true", help="also measure what each speed trick buys")
     b.add_argument("--against", choices=["mjx"],
