@@ -4,7 +4,8 @@ Replays controllers in MuJoCo C on rough fields exported as each form (``hfield`
 ``cpgjax.crosscheck.ground``) at each MuJoCo step, and prints per case the distance walked, whether the body fell,
 and how deep the foot spheres went into the ground: the sphere's lowest point below our surface under its centre
 (the exported surface is the same in every form, within 0.5 mm), sampled every 2 ms, its 99th percentile and
-maximum over the feet and the episode.
+maximum over the feet and the episode, and the share of the feet's contacts pushing more than 45 degrees
+from vertical.
 
     python benchmarks/ground_forms.py                    # the docs' table: about 10 min on 2 cores
     python benchmarks/ground_forms.py --time 0.2 --seeds 1 --dts 0.002 --forms hfield mesh   # a smoke run
@@ -21,22 +22,30 @@ import numpy as np
 CTLS = (("trot (exact)", "models/quadruped-trot.ctl", "exact"), ("robust", "models/quadruped-robust.ctl", None))
 
 
-def foot_depth(model, mj, qpos: np.ndarray, every: int) -> np.ndarray:
-    """[samples, feet] how far each foot sphere's lowest point lies below MuJoCo's surface under its centre [m]: the
-    export lowers our surface h by the radius r, so that depth is h - r - (z - r) = h - z, z the sphere's centre."""
+def foot_contacts(model, mj, qpos: np.ndarray, every: int):
+    """(depth [samples, feet], tilted): how far each foot sphere's lowest point lies below MuJoCo's surface under its
+    centre [m], and the share of the feet's contacts whose normal points more than 45 degrees from vertical (a sphere
+    pushed sideways: by a heightfield prism's wall, or a piece's side), every ``every``-th state of ``qpos``.  The
+    export lowers our surface h by the radius r, so the depth is h - r - (z - r) = h - z, z the sphere's centre."""
     import mujoco
 
     from cpgjax.crosscheck.engines import _foot_geoms
 
-    gids = np.nonzero(_foot_geoms(model, mj) >= 0)[0]
+    foot = _foot_geoms(model, mj) >= 0
+    gids = np.nonzero(foot)[0]
     d = mujoco.MjData(mj)
-    pos = []
+    pos, nz = [], []
     for q in qpos[::every]:
         d.qpos[:] = q
         mujoco.mj_kinematics(mj, d)
+        mujoco.mj_collision(mj, d)
         pos.append(d.geom_xpos[gids].copy())
+        c = d.contact[: d.ncon]
+        on_foot = foot[c.geom1] | foot[c.geom2]
+        nz.extend(np.abs(c.frame[on_foot, 2]).tolist())
     p = np.asarray(pos)                                            # [S, feet, 3]
-    return model.terrain.height_np(p[..., 0], p[..., 1]) - p[..., 2]
+    tilted = float(np.mean(np.asarray(nz) < np.cos(np.pi / 4))) if nz else 0.0
+    return model.terrain.height_np(p[..., 0], p[..., 1]) - p[..., 2], tilted
 
 
 def run(fields, dts, forms, time: float, out=sys.stdout) -> list[dict]:
@@ -47,8 +56,8 @@ def run(fields, dts, forms, time: float, out=sys.stdout) -> list[dict]:
 
     rows = []
     print("| controller | field | MuJoCo step [ms] | form | distance [m] | fell | feet below surface 99 % / max "
-          "[mm] | wall [s] |", file=out)
-    print("|---|---|---:|---|---:|---|---:|---:|", file=out)
+          "[mm] | contacts > 45 deg from vertical | wall [s] |", file=out)
+    print("|---|---|---:|---|---:|---|---:|---:|---:|", file=out)
     for label, ctl, pipeline in CTLS:
         for spec in fields:
             model = load_model("models/quadruped.wl", terrain=spec, pipeline=pipeline)
@@ -58,15 +67,17 @@ def run(fields, dts, forms, time: float, out=sys.stdout) -> list[dict]:
                     t0 = _time.perf_counter()
                     mj = load(model, timestep=dt, ground=form)
                     met, qpos, _ = mujoco_run(model, coeffs, time=time, mj=mj, timestep=dt)
-                    depth = foot_depth(model, mj, qpos[0], max(1, int(round(0.002 / dt))))
+                    depth, tilted = foot_contacts(model, mj, qpos[0], max(1, int(round(0.002 / dt))))
                     row = {"controller": label, "field": spec, "dt": dt, "form": form,
                            "distance": float(met["distance"][0]), "fell": bool(met["fallen"][0]),
                            "depth99": float(np.percentile(depth, 99)), "depth_max": float(depth.max()),
+                           "tilted": tilted,
                            "wall": _time.perf_counter() - t0}
                     rows.append(row)
                     print(f"| {label} | {spec} | {dt * 1e3:g} | {form} | {row['distance']:.3f} | "
                           f"{'fell' if row['fell'] else 'no'} | {row['depth99'] * 1e3:.1f} / "
-                          f"{row['depth_max'] * 1e3:.1f} | {row['wall']:.0f} |", file=out, flush=True)
+                          f"{row['depth_max'] * 1e3:.1f} | {100 * tilted:.1f} % | {row['wall']:.0f} |", file=out,
+                          flush=True)
     return rows
 
 
