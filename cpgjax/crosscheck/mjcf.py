@@ -16,6 +16,7 @@ How the penalty model maps onto MuJoCo's:
 - terrain: a plane when flat, else an ``hfield`` sampled from our bilinear surface on a grid
   ``hfield_sub`` times finer than ours (MuJoCo triangulates each cell; see ``hfield_grid``); either
   lies ``CONTACT_RADIUS`` below our ground, so that a sphere's lowest point rests where our vertex does.
+  ``ground="mesh"`` or ``"boxes"`` gives the same surface as convex pieces instead (:mod:`cpgjax.crosscheck.ground`).
 
 Why 1 cm spheres, not points: MuJoCo's soft contact lets a loaded foot sink 1.9 mm (median; 5.9 mm at the 99th
 percentile) while the quadruped trots on flat ground, and a heightfield is a union of triangular prisms, each
