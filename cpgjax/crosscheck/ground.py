@@ -7,10 +7,10 @@
   a convex mesh of its own: the triangle and, ``PIECE_DEPTH`` below its lowest corner, a base of the same outline
   (a thin prism; MuJoCo collides a mesh as its convex hull, so one mesh of a rough field would be its hull).
 - ``boxes``: every cell of the sampled grid as a thin box, tilted to the plane through the cell's mean height with
-  the cell's mean slopes (MuJoCo's analytic sphere-box contact); neighbouring boxes' tops differ by up to a quarter of
-  the cell's twist, steps of at most 0.6 mm on 2 cm roughness sampled 4x finer.
+  the cell's mean slopes (MuJoCo's analytic sphere-box contact); a box's top differs from the cell's two triangles by
+  up to a quarter of the cell's twist: within 0.46 mm of the heightfield on 2 cm roughness sampled 4x finer.
 
-MuJoCo recomputes the pose of every geom at every step, static ones too: a mesh or boxes ground costs about 20 ns
+MuJoCo recomputes the pose of every geom at every step, static ones too: a mesh or boxes ground costs about 25 ns
 per piece per step, so these forms cover only where the robot can walk (:func:`walk_region`: its contact vertices'
 footprint, ``MARGIN`` either side and behind, ``REACH`` ahead); around it lies the heightfield, lowered by ``PIT``
 under the region, so that only the pieces touch a foot inside it.
