@@ -3,7 +3,8 @@ triangle, as one box per cell; spheres on it against the analytic answers and ou
 
 The MuJoCo step in the ball cases is 0.25 ms, the judge's step on rough ground (docs/crosscheck.md): a 1 kg ball's
 contact is eq. 3.7's, sqrt(A / m) = 316 rad/s, and at the export's 2 ms it bounced up to 0.3 m off the slope in every
-form (measured).  Measured with MuJoCo 4.0.0 on x86-64; every tolerance is stated where it is used."""
+form (measured); the edges are also crossed at 2 ms by a ball of the load a quadruped's foot carries.  Measured
+with MuJoCo 4.0.0 on x86-64; every tolerance is stated where it is used."""
 
 from __future__ import annotations
 
@@ -133,9 +134,9 @@ Object Ball {{
 SLOPE = np.arctan(0.1)
 
 
-def _ball_mujoco(mu, form, time):
-    m = model_from(TRACK.format(mu=mu))
-    _, q, _ = mujoco_run(m, np.zeros((1, 0, 5)), time=time, mj=load(m, ground=form, timestep=STEP))
+def _ball_mujoco(mu, form, time, step=STEP, mass=1.0):
+    m = model_from(TRACK.format(mu=mu).replace("Mass 1\n", f"Mass {mass}\n"))
+    _, q, _ = mujoco_run(m, np.zeros((1, 0, 5)), time=time, mj=load(m, ground=form, timestep=step))
     return m, np.arange(q.shape[1]) * STEP, q[0, :, 1], q[0, :, 2]
 
 
@@ -164,21 +165,24 @@ def test_a_ball_slides_or_rolls_down_one_cell_as_mechanics_says(mu, form):
 
 
 @pytest.mark.parametrize("form", GROUND_FORMS)
-def test_a_sliding_ball_crosses_cell_edges_without_a_jump_or_a_catch(form):
+@pytest.mark.parametrize("step, mass, tol", [(STEP, 1.0, (0.3e-3, 0.5e-3)), (0.002, 3.45, (1e-3, 1.2e-3))])
+def test_a_sliding_ball_crosses_cell_edges_without_a_jump_or_a_catch(form, step, mass, tol):
     """The frictionless ball slides down the first cell, across the flat one and up the third: across two cell edges
     (0.1 and 0.2 rad kinks), the second uphill, where a heightfield prism's wall can catch a sphere.  Its centre stays
     on the surface (h + r (1 / cos a - 1), a the cell's slope: measured within -0.13..+0.08 mm over the whole path,
     edges included, in every form; tolerance 0.3 mm), and it climbs the third cell to the height energy says: each kink
     takes the velocity's normal part (eq. 3.7 and MuJoCo's contact are both overdamped for it), so 0.035 m cos^2(0.1)
     cos^2(0.197) = 33.32 mm.  Measured: ours 33.23 mm (vertex), MuJoCo 33.1 mm (the sphere's centre less its offset on
-    the slope) in every form.  Tolerance 0.5 mm."""
-    m, t, y, z = _ball_mujoco(0.0, form, 2.0)
+    the slope) in every form.  Tolerance 0.5 mm.  At the export's 2 ms, with the 3.45 kg a quadruped's foot carries
+    (a 1 kg ball bounces there, above): on the surface within -0.42..+0.65 mm, climbing 32.4-33.0 mm in the three
+    forms; tolerances 1 and 1.2 mm."""
+    m, t, y, z = _ball_mujoco(0.0, form, 2.0, step, mass)
     slope = np.where(y < 0.4, 0.1, np.where(y < 0.8, 0.0, 0.2))
     off = z - m.terrain.height_np(np.zeros_like(y), y) - R * (np.sqrt(1 + slope ** 2) - 1)
-    assert np.abs(off).max() < 0.3e-3, (off.min(), off.max())
+    assert np.abs(off).max() < tol[0], (off.min(), off.max())
     h0 = 0.04 - 0.1 * 0.05
     climb = h0 * np.cos(SLOPE) ** 2 * np.cos(np.arctan(0.2) - 0) ** 2
     theirs = (z[y > 0.8] - R * (np.sqrt(1 + 0.2 ** 2) - 1)).max()
     r = _ours(TRACK.format(mu=0.0), 2.0)
     ours = r["traj"]["x"][:, 2, 0][r["traj"]["x"][:, 1, 0] > 0.8].max()
-    assert abs(theirs - climb) < 0.5e-3 and abs(ours - climb) < 0.5e-3, (theirs, ours, climb)
+    assert abs(theirs - climb) < tol[1] and abs(ours - climb) < 0.5e-3, (theirs, ours, climb)
