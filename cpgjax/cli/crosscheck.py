@@ -9,6 +9,7 @@ import sys
 from typing import Any
 
 from cpgjax.cli import options as o
+from cpgjax.crosscheck.ground import GROUND_FORMS, ground_form
 
 
 def register(subparsers: Any) -> None:
@@ -16,6 +17,9 @@ def register(subparsers: Any) -> None:
     o.model_argument(e)
     e.add_argument("--out", help="the MJCF file written (.xml; default: beside the model, with .xml)")
     o.terrain_option(e)
+    e.add_argument("--ground", choices=GROUND_FORMS, default="hfield",
+                   help="the form of a non-flat ground in MuJoCo: hfield (default), mesh (a convex mesh per triangle "
+                        "of the heightfield) or boxes (a tilted box per cell); docs/crosscheck.md")
     e.set_defaults(func=cmd_export)
 
     c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
@@ -43,6 +47,7 @@ def register(subparsers: Any) -> None:
     c.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="MuJoCo C's integration step (default: the export's, 2 ms; on rough ground use 0.00025, "
                         "where fast gaits' verdicts settle: docs/crosscheck.md); the ceiling runs it at half that")
+    _mujoco_ground_option(c)
     c.add_argument("--out", default="runs/crosscheck",
                    help="directory for the table and plots (default runs/crosscheck)")
     c.set_defaults(func=cmd_crosscheck)
@@ -73,6 +78,7 @@ def register(subparsers: Any) -> None:
                    help="MuJoCo's integration step (default: the export's, 2 ms; at 2 ms MuJoCo's verdict on a "
                         "marginal gait depends on the step, and on rough ground a fast gait that walks at 0.25 ms "
                         "falls at 2 ms: use 0.00025 there; docs/results/closed-loop.md)")
+    _mujoco_ground_option(t)
     t.add_argument("--restate", action="store_true",
                    help="the arguments are transfer tables (transfer.md, as --out writes them): judge each run again "
                         "by today's rule from the figures in the table, without replaying anything")
@@ -85,6 +91,12 @@ def register(subparsers: Any) -> None:
     t.add_argument("--out", default=None, metavar="DIR", help="write transfer.md, transfer.json and transfer.png here")
     t.add_argument("--json", action="store_true", help="print one JSON object with the summary instead of the table")
     t.set_defaults(func=cmd_transfer)
+
+
+def _mujoco_ground_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--mujoco-ground", choices=GROUND_FORMS, default=None,
+                   help="the form of a non-flat ground in MuJoCo C: hfield (default), mesh or boxes, the same surface "
+                        "(MJX keeps the heightfield; docs/crosscheck.md, the ground's form in MuJoCo)")
 
 
 def _variant_options(p: argparse.ArgumentParser) -> None:
@@ -115,8 +127,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     out = args.out or os.path.splitext(args.model)[0] + ".xml"
     o.check_output_file(out)
     model = load_model(args.model, terrain=args.terrain)
-    text = to_mjcf(model)
-    mj = load(model)  # proves that MuJoCo loads it (before anything is written)
+    text = to_mjcf(model, ground=args.ground)
+    mj = load(model, ground=args.ground)  # proves that MuJoCo loads it (before anything is written)
     with open(out, "w") as f:
         f.write(text)
     print(f"wrote {out}: {mj.nbody - 1} bodies, {mj.njnt} joints, {mj.nu} actuators, "
@@ -150,8 +162,11 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     note = rough_step_note([model.terrain.spec], args.mujoco_dt)
     if note:
         print(note, file=sys.stderr)
-    rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, ceiling=not args.no_ceiling,
-                                   show=args.show, out_dir=args.out, mujoco_dt=args.mujoco_dt)
+    with ground_form(args.mujoco_ground):
+        rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, ceiling=not args.no_ceiling,
+                                       show=args.show, out_dir=args.out, mujoco_dt=args.mujoco_dt)
+    if args.mujoco_ground and not model.terrain.flat:
+        print(f"MuJoCo C's ground: {args.mujoco_ground}")
     engines = [e for e in ("penalty", "mujoco", "mjx") if f"{e}_fitness" in rows[0]]
     print(table(rows, summary, engines))
     if args.out:
@@ -215,7 +230,7 @@ def cmd_transfer(args: argparse.Namespace) -> int:
             return champion.recorded, champion.genome, champion.to_dict()
         here.append(f"each run's validated champion ({v.candidates} candidates x {v.episodes} episodes, "
                     f"seed {v.seed})")
-    with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar:
+    with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar, ground_form(args.mujoco_ground):
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
                                        dt=args.dt, joint_spring=args.joint_spring, pipeline=args.pipeline,
                                        terrain=args.terrain, pick=pick, progress=lambda _: bar.update(),
@@ -234,6 +249,9 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.mujoco_dt is not None:
         here.append(f"MuJoCo's step {args.mujoco_dt * 1e3:g} ms")
         summary["mujoco_dt"] = args.mujoco_dt
+    if args.mujoco_ground is not None:
+        here.append(f"MuJoCo's ground {args.mujoco_ground}")
+        summary["mujoco_ground"] = args.mujoco_ground
     if args.joint_spring is not None:
         here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
         summary["joint_spring"] = list(args.joint_spring)

@@ -145,7 +145,7 @@ def mjx_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, timeste
     import jax.numpy as jnp
     from mujoco import mjx
 
-    mj = load(model, timestep=timestep)
+    mj = load(model, timestep=timestep, ground="hfield")    # MJX keeps the heightfield (mesh and boxes: C only)
     if fast:
         fast_mjx_options(mj)
     mx = mjx.put_model(mj)

@@ -16,6 +16,7 @@ How the penalty model maps onto MuJoCo's:
 - terrain: a plane when flat, else an ``hfield`` sampled from our bilinear surface on a grid
   ``hfield_sub`` times finer than ours (MuJoCo triangulates each cell; see ``hfield_grid``); either
   lies ``CONTACT_RADIUS`` below our ground, so that a sphere's lowest point rests where our vertex does.
+  ``ground="mesh"`` or ``"boxes"`` gives the same surface as convex pieces instead (:mod:`cpgjax.crosscheck.ground`).
 
 Why 1 cm spheres, not points: MuJoCo's soft contact lets a loaded foot sink 1.9 mm (median; 5.9 mm at the 99th
 percentile) while the quadruped trots on flat ground, and a heightfield is a union of triangular prisms, each
@@ -33,6 +34,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from cpgjax.crosscheck.ground import add_ground, check_form, current_form
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
 from cpgjax.sim.terrain import EXTENT_X, EXTENT_Y
 
@@ -112,12 +114,30 @@ def hfield_grid(terrain, sub: int | None = None):
     return np.asarray(terrain.height_np(X, Y), float), x0, y0, dx / sub, dy / sub
 
 
+def hfield_geom(asset, world, grid, *, radius: float, attrs: dict) -> None:
+    """The ``hfield`` asset and the ``ground`` geom of the sampled ``grid`` = (H, x0, y0, dx, dy), ``radius`` lower than
+    it, with the contact ``attrs``, into the MJCF ``asset`` and ``world`` elements."""
+    H, x0, y0, dx, dy = grid
+    ny, nx = H.shape
+    hmin, hmax = float(H.min()), float(H.max())
+    span = max(hmax - hmin, 1e-6)
+    ET.SubElement(asset, "hfield", name="terrain", nrow=str(ny), ncol=str(nx),
+                  size=f"{dx * (nx - 1) / 2:.9g} {dy * (ny - 1) / 2:.9g} {span:.9g} 0.1",
+                  # MuJoCo's first elevation row is at +y, ours (heights[iy]) at -y: flip the rows
+                  elevation=" ".join(f"{v:.7g}" for v in ((H - hmin) / span)[::-1].ravel()))
+    cx, cy = x0 + dx * (nx - 1) / 2, y0 + dy * (ny - 1) / 2
+    ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain",
+                  pos=f"{cx:.9g} {cy:.9g} {hmin - radius:.9g}", **attrs)
+
+
 def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CONTACT_RADIUS,
-            hfield_sub: int | None = None) -> str:
+            hfield_sub: int | None = None, ground: str | None = None) -> str:
     """MJCF text of a cpgjax Model (built from a `.wl` Description).
 
-    ``contact_radius``: the foot spheres' radius (the ground lies that much lower); ``hfield_sub``: the
-    heightfield's points per cell of ours (:func:`hfield_grid`).  Both are for experiments
+    ``ground``: the form of a non-flat ground, ``hfield``, ``mesh`` or ``boxes`` (:mod:`cpgjax.crosscheck.ground`;
+    None: ``hfield``, or the form of an enclosing ``ground.ground_form``).  ``contact_radius``: the foot spheres'
+    radius (the ground lies that much lower); ``hfield_sub``: the heightfield's points per cell of ours
+    (:func:`hfield_grid`).  These two are for experiments
     (``docs/experiments/rough_contacts.py``); the defaults are the export."""
     desc = model.description
     root = ET.Element("mujoco", model=desc.path.rsplit("/", 1)[-1] if desc else "cpgjax")
@@ -133,22 +153,15 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CON
     ET.SubElement(world, "light", pos="0 0 3", dir="0 0 -1")
     t = model.terrain
     r = float(contact_radius)
+    attrs = {"contype": "1", "conaffinity": "1", "friction": f"{mu:g} 0.005 0.0001", "solref": solref}
+    form = current_form() if ground is None else check_form(ground)
     if t.flat:
         ET.SubElement(world, "geom", name="ground", type="plane", size="20 20 0.1", pos=f"0 0 {-r:.9g}", contype="1",
                       conaffinity="1", friction=f"{mu:g} 0.005 0.0001", solref=solref, rgba=".8 .8 .8 1")
+    elif form == "hfield":
+        hfield_geom(asset, world, hfield_grid(t, hfield_sub), radius=r, attrs=attrs)
     else:
-        H, x0, y0, dx, dy = hfield_grid(t, hfield_sub)
-        ny, nx = H.shape
-        hmin, hmax = float(H.min()), float(H.max())
-        span = max(hmax - hmin, 1e-6)
-        ET.SubElement(asset, "hfield", name="terrain", nrow=str(ny), ncol=str(nx),
-                      size=f"{dx * (nx - 1) / 2:.9g} {dy * (ny - 1) / 2:.9g} {span:.9g} 0.1",
-                      # MuJoCo's first elevation row is at +y, ours (heights[iy]) at -y: flip the rows
-                      elevation=" ".join(f"{v:.7g}" for v in ((H - hmin) / span)[::-1].ravel()))
-        cx, cy = x0 + dx * (nx - 1) / 2, y0 + dy * (ny - 1) / 2
-        ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain",
-                      pos=f"{cx:.9g} {cy:.9g} {hmin - r:.9g}", contype="1", conaffinity="1",
-                      friction=f"{mu:g} 0.005 0.0001", solref=solref)
+        add_ground(asset, world, model, form, hfield_grid(t, hfield_sub), radius=r, attrs=attrs)
 
     children = {int(b): j for j, b in enumerate(model.j_b)}
     kids: dict[int, list[int]] = {}

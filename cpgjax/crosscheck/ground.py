@@ -1,0 +1,140 @@
+"""The ground's form in MuJoCo: one surface, our bilinear terrain sampled (``mjcf.hfield_grid``), in one of these forms.
+
+- ``hfield`` (the export's default): a MuJoCo heightfield.  MuJoCo collides a geom with each triangular prism of a
+  heightfield on its own; a small sphere that sinks below the top of the prism beside it is pushed out through that
+  prism's vertical wall (``docs/crosscheck.md``, *The ground's form in MuJoCo*).
+- ``mesh``: every triangle of the heightfield's triangulation (the same two triangles per cell, the same heights) as
+  a convex mesh of its own: the triangle and, ``PIECE_DEPTH`` below its lowest corner, a base of the same outline
+  (a thin prism; MuJoCo collides a mesh as its convex hull, so one mesh of a rough field would be its hull).
+- ``boxes``: every cell of the sampled grid as a thin box, tilted to the plane through the cell's mean height with
+  the cell's mean slopes (MuJoCo's analytic sphere-box contact); a box's top differs from the cell's two triangles by
+  up to a quarter of the cell's twist: within 0.46 mm of the heightfield on 2 cm roughness sampled 4x finer.
+
+MuJoCo recomputes the pose of every geom at every step, static ones too: a mesh or boxes ground costs about 25 ns
+per piece per step, so these forms cover only where the robot can walk (:func:`walk_region`: its contact vertices'
+footprint, ``MARGIN`` either side and behind, ``REACH`` ahead); around it lies the heightfield, lowered by ``PIT``
+under the region, so that only the pieces touch a foot inside it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+GROUND_FORMS = ("hfield", "mesh", "boxes")
+PIECE_DEPTH = 0.03   # m: a piece's thickness below its lowest corner (3 radii of a foot sphere)
+MARGIN = 0.5         # m: the region of pieces beyond the contact vertices' footprint, sideways and behind
+REACH = 5.0          # m: ... and ahead (+y): 0.5 m/s for 10 s
+PIT = 0.1            # m: how far the heightfield lies below the lowest piece inside the region
+
+_FORM: contextvars.ContextVar[str] = contextvars.ContextVar("mujoco_ground", default="hfield")
+
+
+def check_form(form: str) -> str:
+    """``form`` if it is one of :data:`GROUND_FORMS`, else ValueError naming them."""
+    if form not in GROUND_FORMS:
+        raise ValueError(f"unknown MuJoCo ground form {form!r}; expected one of {', '.join(GROUND_FORMS)}")
+    return form
+
+
+def current_form() -> str:
+    """The form the export uses when none is given: ``hfield``, or the one of an enclosing :func:`ground_form`."""
+    return _FORM.get()
+
+
+@contextlib.contextmanager
+def ground_form(form: str | None):
+    """Within this block every MuJoCo export (``mjcf.to_mjcf``, ``mjcf.load``) gives the ground this form (None:
+    unchanged), so that commands that run MuJoCo (crosscheck, transfer) take it without threading it through."""
+    if form is None:
+        yield
+        return
+    token = _FORM.set(check_form(form))
+    try:
+        yield
+    finally:
+        _FORM.reset(token)
+
+
+def walk_region(model) -> tuple[float, float, float, float]:
+    """(x_lo, x_hi, y_lo, y_hi) where the pieces lie: the contact vertices' footprint in the initial pose, widened by
+    :data:`MARGIN` and :data:`REACH` ahead."""
+    from cpgjax.sim.rotation import quat_to_mat_np
+
+    if len(model.ct_pt) == 0:
+        return -MARGIN, MARGIN, -MARGIN, REACH
+    b = model.pt_body[model.ct_pt]
+    R = quat_to_mat_np(np.asarray(model.q0)[:, b])
+    p = np.asarray(model.x0)[:, b] + np.einsum("ij...,j...->i...", R, np.asarray(model.pt_local)[:, model.ct_pt])
+    return (float(p[0].min()) - MARGIN, float(p[0].max()) + MARGIN, float(p[1].min()) - MARGIN,
+            float(p[1].max()) + REACH)
+
+
+def _window(n: int, start: float, step: float, lo: float, hi: float) -> tuple[int, int]:
+    """Index range [i0, i1] of grid points start + i step (i < n) whose cells cover lo..hi."""
+    i0 = int(np.clip(np.floor((lo - start) / step), 0, n - 2))
+    i1 = int(np.clip(np.ceil((hi - start) / step), i0 + 1, n - 1))
+    return i0, i1
+
+
+def triangles(H, x0: float, y0: float, dx: float, dy: float, ix=None, iy=None) -> np.ndarray:
+    """[n, 3, 3] MuJoCo's triangulation of the heightfield ``H[iy, ix]`` (x = x0 + ix dx, y = y0 + iy dy) over the
+    cells of grid points ``ix = (i0, i1)``, ``iy`` (default all): each cell split along its diagonal from
+    (ix, iy) to (ix + 1, iy + 1), as MuJoCo splits it (ray casts agree to 1e-9, tests/crosscheck/test_ground.py)."""
+    ny, nx = H.shape
+    i0, i1 = ix or (0, nx - 1)
+    j0, j1 = iy or (0, ny - 1)
+    X, Y = np.meshgrid(x0 + dx * np.arange(i0, i1 + 1), y0 + dy * np.arange(j0, j1 + 1))
+    P = np.stack([X, Y, H[j0:j1 + 1, i0:i1 + 1]], -1)            # [cy + 1, cx + 1, 3]
+    a, b, c, d = P[:-1, :-1], P[:-1, 1:], P[1:, :-1], P[1:, 1:]  # (x, y), (x+, y), (x, y+), (x+, y+)
+    t1 = np.stack([a, b, d], -2).reshape(-1, 3, 3)
+    t2 = np.stack([a, d, c], -2).reshape(-1, 3, 3)
+    return np.concatenate([t1, t2])
+
+
+def _f(v) -> str:
+    return " ".join(f"{float(x):.9g}" for x in np.ravel(v))
+
+
+def add_ground(asset, world, model, form: str, grid, *, radius: float, attrs: dict) -> None:
+    """Write the ground of ``form`` (``mesh`` or ``boxes``) for the sampled ``grid`` = (H, x0, y0, dx, dy) into the
+    MJCF ``asset`` and ``world`` elements: the pieces over :func:`walk_region`, a heightfield with a pit beyond.
+    ``radius``: the foot spheres' (the ground lies that much lower); ``attrs``: the ground's contact attributes."""
+    from cpgjax.crosscheck.mjcf import hfield_geom
+
+    H, x0, y0, dx, dy = grid
+    ny, nx = H.shape
+    xl, xh, yl, yh = walk_region(model)
+    ix, iy = _window(nx, x0, dx, xl, xh), _window(ny, y0, dy, yl, yh)
+    if check_form(form) == "mesh":
+        for k, tri in enumerate(triangles(H, x0, y0, dx, dy, ix, iy)):
+            base = tri.copy()
+            base[:, 2] = tri[:, 2].min() - PIECE_DEPTH
+            ET.SubElement(asset, "mesh", name=f"ground{k}", vertex=_f(np.concatenate([tri, base]) - [0, 0, radius]))
+            ET.SubElement(world, "geom", name=f"ground_m{k}", type="mesh", mesh=f"ground{k}", **attrs)
+    else:
+        sub = H[iy[0]:iy[1] + 1, ix[0]:ix[1] + 1]
+        h = (sub[:-1, :-1] + sub[:-1, 1:] + sub[1:, :-1] + sub[1:, 1:]) / 4
+        sx = (sub[:-1, 1:] + sub[1:, 1:] - sub[:-1, :-1] - sub[1:, :-1]) / (2 * dx)   # mean slopes of each cell
+        sy = (sub[1:, :-1] + sub[1:, 1:] - sub[:-1, :-1] - sub[:-1, 1:]) / (2 * dy)
+        k = 0
+        for j in range(h.shape[0]):
+            for i in range(h.shape[1]):
+                ex = np.array([1.0, 0.0, sx[j, i]])
+                n = np.array([-sx[j, i], -sy[j, i], 1.0])
+                ex, n = ex / np.linalg.norm(ex), n / np.linalg.norm(n)
+                ey = np.cross(n, ex)
+                # half-sizes: the top face covers the cell's footprint (ey leans along x by ey[0] / ey[1])
+                hx, hy = (dx + abs(ey[0] / ey[1]) * dy) / 2 / ex[0], dy / 2 / ey[1]
+                c = np.array([x0 + dx * (ix[0] + i + 0.5), y0 + dy * (iy[0] + j + 0.5), h[j, i] - radius])
+                ET.SubElement(world, "geom", name=f"ground_b{k}", type="box",
+                              size=f"{hx:.9g} {hy:.9g} {PIECE_DEPTH / 2:.9g}", pos=_f(c - n * PIECE_DEPTH / 2),
+                              xyaxes=_f([*ex, *ey]), **attrs)
+                k += 1
+    pit = H.copy()
+    inner = pit[iy[0] + 1:iy[1], ix[0] + 1:ix[1]]
+    inner[...] = H.min() - PIT
+    hfield_geom(asset, world, (pit, x0, y0, dx, dy), radius=radius, attrs=attrs)
