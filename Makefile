@@ -38,7 +38,7 @@ run: $(STAMP)
 	$(BIN)/cpgjax transfer $(QUICK).h5 --out $(QUICK)-transfer
 
 lint: $(STAMP)
-	$(BIN)/ruff check cpgjax tests
+	$(BIN)/ruff check cpgjax tests benchmarks
 
 # the fast suite; it ends with its ten slowest tests, its time (wall and CPU) and the load it ran under.
 # pytest's "no tests ran" (exit 5) fails like any other failure.  TEST_WORKERS pytest-xdist workers (one per core

@@ -47,7 +47,7 @@ def register(subparsers: Any) -> None:
     c.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="MuJoCo C's integration step (default: the export's, 2 ms; on rough ground use 0.00025, "
                         "where fast gaits' verdicts settle: docs/crosscheck.md); the ceiling runs it at half that")
-    _mujoco_ground_option(c)
+    mujoco_ground_option(c)
     c.add_argument("--out", default="runs/crosscheck",
                    help="directory for the table and plots (default runs/crosscheck)")
     c.set_defaults(func=cmd_crosscheck)
@@ -78,7 +78,7 @@ def register(subparsers: Any) -> None:
                    help="MuJoCo's integration step (default: the export's, 2 ms; at 2 ms MuJoCo's verdict on a "
                         "marginal gait depends on the step, and on rough ground a fast gait that walks at 0.25 ms "
                         "falls at 2 ms: use 0.00025 there; docs/results/closed-loop.md)")
-    _mujoco_ground_option(t)
+    mujoco_ground_option(t)
     t.add_argument("--restate", action="store_true",
                    help="the arguments are transfer tables (transfer.md, as --out writes them): judge each run again "
                         "by today's rule from the figures in the table, without replaying anything")
@@ -93,7 +93,7 @@ def register(subparsers: Any) -> None:
     t.set_defaults(func=cmd_transfer)
 
 
-def _mujoco_ground_option(p: argparse.ArgumentParser) -> None:
+def mujoco_ground_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mujoco-ground", choices=GROUND_FORMS, default=None,
                    help="the form of a non-flat ground in MuJoCo C: hfield (default), mesh or boxes, the same surface "
                         "(MJX keeps the heightfield; docs/crosscheck.md, the ground's form in MuJoCo)")

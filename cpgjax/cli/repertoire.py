@@ -205,6 +205,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="--engine mujoco|both: MuJoCo C's integration step (default: the export's, 2 ms; on rough "
                         "ground use 0.00025, as for transfer: docs/crosscheck.md)")
+    from cpgjax.cli.crosscheck import mujoco_ground_option
+
+    mujoco_ground_option(p)
     p.add_argument("--video", default=None, metavar="OUT.mp4",
                    help="render the walk to this video file (.mp4 or .gif; --ctl: one controller, one path)")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
@@ -344,7 +347,8 @@ def cmd_follow(args: argparse.Namespace) -> int:
     if ctl_only:
         raise ValueError(f"{', '.join(ctl_only)}: with --ctl only (a repertoire's gaits run for whole cycles, on its "
                          "pipeline)")
-    mj_only = [f"--{n.replace('_', '-')}" for n in ("engine", "mujoco_dt") if getattr(args, n) is not None]
+    mj_only = [f"--{n.replace('_', '-')}" for n in ("engine", "mujoco_dt", "mujoco_ground")
+               if getattr(args, n) is not None]
     if mj_only:
         raise ValueError(f"{', '.join(mj_only)}: with --ctl only (a repertoire's walk is its look-ahead's "
                          "simulation, in our simulator)")
@@ -373,8 +377,9 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         if getattr(args, n) is not None:
             raise ValueError(f"--{n.replace('_', '-')}: with --repertoire only")
     engine = args.engine or "ours"
-    if args.mujoco_dt is not None and engine == "ours":
-        raise ValueError("--mujoco-dt: with --engine mujoco or both (MuJoCo C's step)")
+    for n in ("mujoco_dt", "mujoco_ground"):
+        if getattr(args, n) is not None and engine == "ours":
+            raise ValueError(f"--{n.replace('_', '-')}: with --engine mujoco or both (MuJoCo C's)")
     if args.video and engine == "mujoco":
         raise ValueError("--video draws our simulator's walk: with --engine ours or both")
     from cpgjax.cli.simulate import header_settings
@@ -389,9 +394,12 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         note = rough_step_note([load_model(args.model).terrain.spec], args.mujoco_dt)
         if note:
             print(note, file=sys.stderr)
-    r = steer.walks(args.model, args.ctl, args.path, time=args.time or steer.TIME, gain=args.gain or steer.GAIN,
-                    limit=args.limit or steer.LIMIT, pipeline=rp.pipeline, video=args.video, engine=engine,
-                    mujoco_dt=args.mujoco_dt)
+    from cpgjax.crosscheck.ground import ground_form
+
+    with ground_form(args.mujoco_ground):
+        r = steer.walks(args.model, args.ctl, args.path, time=args.time or steer.TIME, gain=args.gain or steer.GAIN,
+                        limit=args.limit or steer.LIMIT, pipeline=rp.pipeline, video=args.video, engine=engine,
+                        mujoco_dt=args.mujoco_dt)
     names = {"ours": " [ours]:     ", "mujoco": " [MuJoCo C]: "}     # the two engines' rows aligned
     for w in r:
         state = ("finished" if w["finished"] else f"fell at {w['fell']:.1f} s" if w["fell"] is not None
