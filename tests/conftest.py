@@ -68,6 +68,7 @@ HEAVY_FIRST = (
     "test_models.py", "episode/test_descriptors.py", "optim/test_mapelites.py", "experiments/test_validate.py",
     "sim/test_contact.py", "cli/test_replay.py", "experiments/test_stability.py", "io/test_runlock.py",
     "crosscheck/test_compare.py", "episode/test_sensors.py", "cli/test_cli_bad_input.py", "optim/test_baselines.py",
+    "crosscheck/test_ground.py", "crosscheck/test_ground_bench.py", "cli/test_ctl_provenance.py",
 )
 
 

@@ -99,12 +99,26 @@ def _f(v) -> str:
     return " ".join(f"{float(x):.9g}" for x in np.ravel(v))
 
 
+def hfield_geom(asset, world, grid, *, radius: float, attrs: dict) -> None:
+    """The ``hfield`` asset and the ``ground`` geom of the sampled ``grid`` = (H, x0, y0, dx, dy), ``radius`` lower than
+    it, with the contact ``attrs``, into the MJCF ``asset`` and ``world`` elements."""
+    H, x0, y0, dx, dy = grid
+    ny, nx = H.shape
+    hmin, hmax = float(H.min()), float(H.max())
+    span = max(hmax - hmin, 1e-6)
+    ET.SubElement(asset, "hfield", name="terrain", nrow=str(ny), ncol=str(nx),
+                  size=f"{dx * (nx - 1) / 2:.9g} {dy * (ny - 1) / 2:.9g} {span:.9g} 0.1",
+                  # MuJoCo's first elevation row is at +y, ours (heights[iy]) at -y: flip the rows
+                  elevation=" ".join(f"{v:.7g}" for v in ((H - hmin) / span)[::-1].ravel()))
+    cx, cy = x0 + dx * (nx - 1) / 2, y0 + dy * (ny - 1) / 2
+    ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain",
+                  pos=f"{cx:.9g} {cy:.9g} {hmin - radius:.9g}", **attrs)
+
+
 def add_ground(asset, world, model, form: str, grid, *, radius: float, attrs: dict) -> None:
     """Write the ground of ``form`` (``mesh`` or ``boxes``) for the sampled ``grid`` = (H, x0, y0, dx, dy) into the
     MJCF ``asset`` and ``world`` elements: the pieces over :func:`walk_region`, a heightfield with a pit beyond.
     ``radius``: the foot spheres' (the ground lies that much lower); ``attrs``: the ground's contact attributes."""
-    from cpgjax.crosscheck.mjcf import hfield_geom
-
     H, x0, y0, dx, dy = grid
     ny, nx = H.shape
     xl, xh, yl, yh = walk_region(model)

@@ -34,7 +34,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from cpgjax.crosscheck.ground import add_ground, check_form, current_form
+from cpgjax.crosscheck.ground import add_ground, check_form, current_form, hfield_geom
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
 from cpgjax.sim.terrain import EXTENT_X, EXTENT_Y
 
@@ -112,22 +112,6 @@ def hfield_grid(terrain, sub: int | None = None):
     ys = y0 + dy * np.arange((ny - 1) * sub + 1) / sub
     X, Y = np.meshgrid(xs, ys)
     return np.asarray(terrain.height_np(X, Y), float), x0, y0, dx / sub, dy / sub
-
-
-def hfield_geom(asset, world, grid, *, radius: float, attrs: dict) -> None:
-    """The ``hfield`` asset and the ``ground`` geom of the sampled ``grid`` = (H, x0, y0, dx, dy), ``radius`` lower than
-    it, with the contact ``attrs``, into the MJCF ``asset`` and ``world`` elements."""
-    H, x0, y0, dx, dy = grid
-    ny, nx = H.shape
-    hmin, hmax = float(H.min()), float(H.max())
-    span = max(hmax - hmin, 1e-6)
-    ET.SubElement(asset, "hfield", name="terrain", nrow=str(ny), ncol=str(nx),
-                  size=f"{dx * (nx - 1) / 2:.9g} {dy * (ny - 1) / 2:.9g} {span:.9g} 0.1",
-                  # MuJoCo's first elevation row is at +y, ours (heights[iy]) at -y: flip the rows
-                  elevation=" ".join(f"{v:.7g}" for v in ((H - hmin) / span)[::-1].ravel()))
-    cx, cy = x0 + dx * (nx - 1) / 2, y0 + dy * (ny - 1) / 2
-    ET.SubElement(world, "geom", name="ground", type="hfield", hfield="terrain",
-                  pos=f"{cx:.9g} {cy:.9g} {hmin - radius:.9g}", **attrs)
 
 
 def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CONTACT_RADIUS,

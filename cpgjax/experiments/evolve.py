@@ -244,9 +244,10 @@ def check_problem(path: str, problem: Problem, attrs: dict | None = None, verb: 
                            "run started " + ("(restore it, or start anew with --overwrite)" if verb == "resume"
                                              else fix))
     for k in [k for k in _META_OPTIONS if k in differ] + sorted(set(differ) - set(_META_OPTIONS) - {"model_text"}):
-        _, what, unit = _META_OPTIONS.get(k, (None, k, ""))
+        option, what, unit = _META_OPTIONS.get(k, (None, k, ""))
+        why = fix if option or verb != "resume" else "(start anew with --overwrite)"    # no option to drop
         raise ResultsError(f"{path}: cannot {verb}: the {what} {_show(k, new.get(k), unit, old.get(k))} differs "
-                           f"from the run's {_show(k, old.get(k), unit, new.get(k))} {fix}")
+                           f"from the run's {_show(k, old.get(k), unit, new.get(k))} {why}")
 
 
 def _check_machine(path: str, completed: int, allow: bool) -> None:

@@ -40,6 +40,7 @@ def _spy(monkeypatch, module):
     return seen
 
 
+@pytest.mark.slow
 def test_crosscheck_runs_mujoco_on_the_form_asked_for(tmp_path, capsys, monkeypatch):
     """MuJoCo C on boxes: the crosscheck's MuJoCo distance is the one of a direct run on boxes (0.2 s)."""
     from cpgjax.crosscheck.mjcf import load
@@ -68,6 +69,7 @@ def runs(tiny_runs):
     return tiny_runs.folder
 
 
+@pytest.mark.slow
 def test_transfer_replays_mujoco_on_the_form_asked_for(runs, capsys, monkeypatch):
     from cpgjax.crosscheck import transfer
 

@@ -68,7 +68,7 @@ def test_refusals(tmp_path):
         run_ga(problem, CFG, p)
     with pytest.raises(ResultsError, match="pocket"):
         run_ga(problem, GAConfig(**{**CFG.to_dict(), "pocket": 2}), p, resume=True)
-    with pytest.raises(ResultsError, match="genome or population"):
+    with pytest.raises(ResultsError, match=r"the n_dof 3 differs from the run's 2 \(start anew with --overwrite\)"):
         run_ga(analytic_problem("analytic:diverging:15"), CFG, p, resume=True)
     run_ga(problem, CFG, p, overwrite=True, stop_after=2)
     assert read_run(p).completed == 2
