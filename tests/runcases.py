@@ -64,3 +64,15 @@ class TinyRuns:
             assert cli.main(["evolve", "models/quadruped.wl", *TINY_GA, *extra, "--out", out]) == 0
             self._made[kind] = out
         return self._made[kind]
+
+
+def one_line_error(err: str, command: str, expect=(), absent=()) -> None:
+    """``err`` (a command's stderr) is one line, ``cpgjax COMMAND: error: ...``, with each of ``expect`` in it and
+    none of ``absent``: the project's rule for bad input."""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert lines[0].startswith(f"cpgjax {command}: error: "), err
+    for text in expect:
+        assert text in lines[0], err
+    for text in absent:
+        assert text not in lines[0], err

@@ -9,6 +9,20 @@ import numpy as np
 from cpgjax.io.wl import parse_wl
 from cpgjax.sim.model import build_model
 
+# A 13.8 kg stool on three feet: on uneven ground its pose and the feet's loads follow from statics
+# (tests/crosscheck/test_mjcf.py, test_ground.py).
+STOOL = """
+Object Stool {
+    Type Cube
+    Mass 13.8
+    Dimensions .2 .2 .05
+    Position 0.03 0.02 0.1
+    Contact -0.1 -0.08 -0.1
+    Contact 0.1 -0.08 -0.1
+    Contact 0.0 0.1 -0.1
+}
+"""
+
 
 def model_from(text: str, **kw):
     return build_model(parse_wl(text, "<test>"), **kw)

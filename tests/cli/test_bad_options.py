@@ -14,6 +14,7 @@ import os
 
 import jax
 import pytest
+from runcases import one_line_error
 
 from cpgjax.cli import main
 from cpgjax.experiments.evolve import open_run, run_keys
@@ -109,13 +110,7 @@ def test_bad_option_is_one_line_exit_2_and_writes_nothing(folder, monkeypatch, c
     rc = main(argv)
     err = capsys.readouterr().err
     assert rc == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in err, err
-    assert lines[0].startswith(f"cpgjax {argv[0]}: error: "), err
-    for text in expect:
-        assert text in lines[0], err
-    for text in absent:
-        assert text not in lines[0], err
+    one_line_error(err, argv[0], expect, absent)
     assert _files(folder) == before
 
 

@@ -17,6 +17,7 @@ import time
 
 import jax
 import pytest
+from runcases import one_line_error
 
 from cpgjax.cli import main
 from cpgjax.experiments.evolve import open_run, run_keys
@@ -132,11 +133,7 @@ def test_bad_input_is_one_line_exit_2_and_changes_nothing(folder, monkeypatch, c
     rc = main(argv)
     err = capsys.readouterr().err
     assert rc == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in err, err
-    assert lines[0].startswith(f"cpgjax {argv[0]}: error: "), err
-    for text in expect:
-        assert text in lines[0]
+    one_line_error(err, argv[0], expect)
     assert _hashes(folder) == before
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from simcases import model_from
+from simcases import STOOL, model_from
 
 from cpgjax.crosscheck.engines import mujoco_run
 from cpgjax.crosscheck.ground import GROUND_FORMS, check_form, ground_form
@@ -61,16 +61,7 @@ Terrain matrix 2 2 -0.5 0.5 -0.5 0.5 {
   0.075 0.175
   0.225 0.325
 }
-Object Stool {
-    Type Cube
-    Mass 13.8
-    Dimensions .2 .2 .05
-    Position 0.03 0.02 0.1
-    Contact -0.1 -0.08 -0.1
-    Contact 0.1 -0.08 -0.1
-    Contact 0.0 0.1 -0.1
-}
-"""
+""" + STOOL
 _OURS: dict = {}
 
 

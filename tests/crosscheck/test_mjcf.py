@@ -165,21 +165,9 @@ def test_mujoco_ground_is_eq_3_7_for_a_light_and_a_heavy_body(mass):
 
 def _stool(terrain):
     """A 13.8 kg stool on three feet: on uneven ground its pose and the feet's loads follow from statics."""
-    from simcases import model_from
+    from simcases import STOOL, model_from
 
-    return model_from("""
-TimeMax 1.0
-LogRate 100
-Object Stool {
-    Type Cube
-    Mass 13.8
-    Dimensions .2 .2 .05
-    Position 0.03 0.02 0.1
-    Contact -0.1 -0.08 -0.1
-    Contact 0.1 -0.08 -0.1
-    Contact 0.0 0.1 -0.1
-}
-""", terrain=terrain)
+    return model_from("TimeMax 1.0\nLogRate 100\n" + STOOL, terrain=terrain)
 
 
 def _roll_pitch(R):
