@@ -2,9 +2,10 @@
 
 One module per command group, each with ``register(subparsers)``:
 :mod:`~cpgjax.cli.simulate` (simulate, robustness), :mod:`~cpgjax.cli.tools` (bench, study-dt,
-study-friction), :mod:`~cpgjax.cli.crosscheck` (export, crosscheck, transfer), :mod:`~cpgjax.cli.render`
-(render), :mod:`~cpgjax.cli.evolve` (evolve, search, best, plot), :mod:`~cpgjax.cli.sweep` (sweep, report,
-notebook), :mod:`~cpgjax.cli.stability` (stability), :mod:`~cpgjax.cli.validation` (servo).  Command
+study-friction), :mod:`~cpgjax.cli.crosscheck` (export, crosscheck, transfer), :mod:`~cpgjax.cli.agreement`
+(agreement), :mod:`~cpgjax.cli.render` (render), :mod:`~cpgjax.cli.evolve` (evolve, search, best, plot),
+:mod:`~cpgjax.cli.sweep` (sweep, report, notebook), :mod:`~cpgjax.cli.stability` (stability),
+:mod:`~cpgjax.cli.validation` (servo), :mod:`~cpgjax.cli.repertoire` (repertoire, adapt, follow).  Command
 functions return an exit code for a result (0; ``simulate`` 1 when the episode diverged) and *raise* on bad input.
 
 :func:`main` is the one place that maps errors to exit codes: bad input (cpgjax's own errors,
@@ -34,14 +35,15 @@ after G. Grasso's thesis (NJIT, 2000), and check them in MuJoCo.
   CPG modulated by a feedback policy reading the robot's sensors); scored by one episode
   or robustly, over many perturbed ones (domain randomisation);
 - best, plot, report, notebook, stability, robustness: read, plot and test the results;
-- crosscheck, transfer, export, servo: compare the simulator with MuJoCo C and MJX, and
-  replay evolved gaits there (do they carry over?);
+- crosscheck, transfer, agreement, export, servo: compare the simulator with MuJoCo C and
+  MJX, replay evolved gaits there (do they carry over?), and see where the engines part;
 - repertoire, repertoire-plot, adapt, follow: a repertoire of gaits by MAP-Elites, a
   damaged robot finding by trial one of its gaits that still walks (intelligent trial
   and error, IT&E), walking along a path by steering;
 - bench, study-dt, study-friction: speed and the simulator's numerical choices."""
 
-GROUPS = ("simulate", "tools", "crosscheck", "render", "evolve", "sweep", "stability", "validation", "repertoire")
+GROUPS = ("simulate", "tools", "crosscheck", "agreement", "render", "evolve", "sweep", "stability", "validation",
+          "repertoire")
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 

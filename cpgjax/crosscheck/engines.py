@@ -342,14 +342,17 @@ def _root_dof(model, mj) -> int:
 
 
 def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_DELTA,
-                      timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False, steer=None):
+                      timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False, steer=None,
+                      watch=None):
     """Roll out N closed-loop controllers (a :class:`~cpgjax.episode.policy.ClosedLoop`, robots first) in MuJoCo C,
     one step at a time: each step the observation is computed from MuJoCo's state (:func:`mujoco_observe`), the
     policy acts on it (numpy, the formulas of :mod:`cpgjax.episode.policy`) and the servo targets go to the position
     actuators as in :func:`controls`.  Returns (metrics, qpos [N, S, nq], wall); with ``record`` also the
     observations [N, S - 1, n] (the one each step read, from t = 0).  ``steer``: ``steer(step, datas)`` gives, before
     every step, the command [N] the policy reads, computed from MuJoCo's state (:mod:`cpgjax.crosscheck.follow`),
-    instead of the controller's constant one; None ends the episode there (qpos [N, step + 1, nq]).
+    instead of the controller's constant one; None ends the episode there (qpos [N, step + 1, nq]).  ``watch``:
+    ``watch(step, datas)`` after every step (``step`` from 1), to read what qpos does not hold (contacts:
+    :mod:`cpgjax.crosscheck.agreement`).
     """
     import mujoco
 
@@ -410,6 +413,8 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
             d.ctrl[:] = u_act[i]
             mujoco.mj_step(mj, d)
             qpos[i, s + 1] = d.qpos
+        if watch is not None:
+            watch(s + 1, datas)
         phase_d = phase_d + dt * mf
     wall = _time.perf_counter() - t0
     out = (_metrics(model, mj, qpos, dt, delta), qpos, wall)

@@ -1,0 +1,104 @@
+"""`cpgjax agreement` (cpgjax/crosscheck/agreement.py): evolved gaits here and in MuJoCo C, their feet watched."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from cpgjax import cli
+from cpgjax.crosscheck import agreement as ag
+
+LEGS = ("AR", "AL", "PR", "PL")
+
+
+def _watch(S=100, touch=True, speed=0.0, depth=1e-3, nz=1.0, up=None):
+    """One gait's feet: four feet touching (or not), sliding along x at ``speed`` m/s."""
+    t = np.arange(S) * ag.SAMPLE
+    feet = np.zeros((S, 4, 3))
+    feet[..., 0] = speed * t[:, None]
+    tch = np.full((S, 4), touch)
+    return ag.Watch(feet=feet, touch=tch, depth=np.where(tch, depth, 0.0), nz=np.full((S, 4), nz),
+                    up=np.ones(S) if up is None else up)
+
+
+def test_feet_that_stand_do_not_slip_and_feet_that_slide_slip_at_their_speed():
+    assert ag.diagnose(_watch(), LEGS, ag.SAMPLE)["slip"] == 0.0
+    assert ag.diagnose(_watch(speed=0.05), LEGS, ag.SAMPLE)["slip"] == pytest.approx(50.0)       # mm/s
+    assert ag.diagnose(_watch(touch=False, speed=0.05), LEGS, ag.SAMPLE)["slip"] == 0.0            # in the air
+
+
+def test_depth_and_steep_contacts_are_counted_over_the_touching_feet():
+    d = ag.diagnose(_watch(depth=2e-3, nz=math.cos(math.radians(30))), LEGS, ag.SAMPLE)
+    assert d["depth"] == pytest.approx((2.0, 2.0, 2.0))
+    assert d["steep"] == 1.0
+    assert ag.diagnose(_watch(nz=math.cos(math.radians(20))), LEGS, ag.SAMPLE)["steep"] == 0.0
+
+
+def test_the_first_leg_to_lose_the_ground_is_the_one_whose_last_touch_before_the_fall_came_first():
+    S = 100
+    up = np.ones(S)
+    up[60:] = np.linspace(0.4, -1.0, 40)          # tilted past 60 degrees at sample 60, turned over after
+    w = _watch(S, up=up)
+    for leg, last in ((0, 55), (1, 30), (2, 58), (3, 50)):
+        w.touch[last + 1:, leg] = False
+    assert ag.diagnose(w, LEGS, ag.SAMPLE)["lost"] == "AL"
+    assert ag.diagnose(_watch(S), LEGS, ag.SAMPLE)["lost"] == "—"      # no fall
+
+
+def test_a_robot_at_rest_stands_on_its_four_feet_in_both_engines():
+    """The quadruped holding its design pose on flat ground for 1 s.  Here each foot carries a quarter of the
+    robot: depth m g / (4 A) (eq. 3.7; sim/contact.py makes it exact at rest), the normal vertical, no slip.  In
+    MuJoCo C its spheres touch too, with a vertical normal and no slip; their depth is MuJoCo's (its
+    regularisation sinks them deeper: docs/experiments/mujoco_ground.py), only checked to be of the same order."""
+    from cpgjax.io.wl import load_model
+
+    model = load_model("models/quadruped.wl", pipeline="exact")
+    C = np.zeros((1, model.n_ctrl, model.n_coeff), np.float32)
+    _, (here,) = ag.watch_ours(model, C, 1.0)
+    _, (there,) = ag.watch_mujoco(model, ag.as_closed(model, None, C), 1.0, 0.0005)
+    rest = model.mass.sum() * model.gravity / (4 * model.ground_A)
+    tail = slice(-100, None)                                  # the last 0.2 s, settled
+    assert here.touch[tail].all() and there.touch[tail].all()
+    np.testing.assert_allclose(here.depth[tail], rest, rtol=0.02)
+    assert 0.5 * rest < np.median(there.depth[tail]) < 20 * rest
+    assert ag.diagnose(ag.Watch(*(a[tail] for a in (here.feet, here.touch, here.depth, here.nz, here.up))),
+                       LEGS, ag.SAMPLE)["slip"] < 0.1                                             # mm/s
+    assert ag.diagnose(ag.Watch(*(a[tail] for a in (there.feet, there.touch, there.depth, there.nz, there.up))),
+                       LEGS, ag.SAMPLE)["slip"] < 0.5
+    assert (here.nz[tail] == 1.0).all() and (there.nz[tail] > 0.999).all()
+
+
+def test_gaits_are_picked_from_generations_spread_over_the_run_once_each(tiny_runs):
+    from cpgjax.io.results import read_run
+
+    run = read_run(tiny_runs["thesis"])
+    picked = ag.pick_gaits(run, 2)
+    assert [g for g, _ in picked] == [0, 1] or [g for g, _ in picked] == [0]       # a genome met twice is kept once
+    for gen, genome in picked:
+        v = run.valid_fitness()[gen]
+        np.testing.assert_array_equal(genome, run.genomes[gen, int(np.nanargmax(v))])
+
+
+@pytest.mark.slow    # 15 s: a recording rollout and MuJoCo C, on top of the tiny run
+def test_agreement_writes_its_table_and_summary(tiny_runs, tmp_path, capsys):
+    out = tmp_path / "ag"
+    assert cli.main(["agreement", tiny_runs["robust"], "--per-run", "2", "--terrain", "rough:0.02:0.1:1",
+                     "--mujoco-dt", "0.001", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "| gait | speed [m/s] here" in text and "robust.h5@" in text and "Spearman of the speeds" in text
+    data = json.loads((out / "agreement.json").read_text())
+    assert (out / "agreement.png").stat().st_size > 10_000
+    assert data["summary"]["terrain"] == "rough:0.02:0.1:1" and 1 <= data["summary"]["gaits"] <= 2
+    for g in data["gaits"]:
+        for side in ("ours", "mujoco"):
+            assert set(g[side]) == {"fell", "speed", "depth", "steep", "slip", "landings", "lost"}
+
+
+def test_a_controller_file_is_refused_in_one_line(capsys):
+    from runcases import one_line_error
+
+    assert cli.main(["agreement", "models/quadruped-trot.ctl"]) == 2
+    one_line_error(capsys.readouterr().err, "agreement", expect=("run files", "cpgjax crosscheck"))
