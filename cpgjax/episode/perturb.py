@@ -14,7 +14,8 @@ episodes, each with fresh perturbations drawn per robot from its own key:
 * the robot as built: friction coefficients, each body's mass and inertia, and each servo's gains
   scaled by ``1 + U(-x, x)`` (``friction``, ``mass``, ``gain``);
 * the foot's compliance (off by default): the friction bristle's spring ``k`` (``FrictionSpring``) scaled
-  by ``10^U(0, bristle)``, from the model's soft default up to ``bristle`` decades stiffer: the soft
+  by ``10^U(bristle_from, bristle)``, from the model's soft default (``bristle_from`` 0) up to ``bristle`` decades
+  stiffer: the soft
   bristle lets a gait store and return energy in centimetres of elastic foot slip that MuJoCo's
   friction does not have (docs/simulator.md), and a gait that must work at every stiffness cannot
   live on it;
@@ -76,7 +77,8 @@ class Perturbations:
     mass: float = 0.05         # relative: each body's mass and inertia
     gain: float = 0.1          # relative: each servo's kp, ki, kd
     jitter: float = 1e-3       # rad: sd of the gene jitter
-    bristle: float = 0.0       # decades: the friction bristle's k scaled by 10^U(0, bristle)
+    bristle: float = 0.0       # decades: the friction bristle's k scaled by 10^U(bristle_from, bristle)
+    bristle_from: float = 0.0  # decades: the least stiffening of the bristle (0: the model's own k at the least)
     torque: float = 0.0        # relative: each servo's torque limit
     stiffness: float = 0.0     # relative: the ground's stiffness A (eq. 3.7)
     damping: float = 0.0       # relative: the ground's damping B (eq. 3.7)
@@ -92,14 +94,17 @@ class Perturbations:
     def __post_init__(self) -> None:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
-        for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "torque",
-                  "stiffness", "damping", "relief", "noise", "command", "speed"):
+        for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "bristle_from",
+                  "torque", "stiffness", "damping", "relief", "noise", "command", "speed"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
         for f in ("friction", "mass", "gain", "torque", "stiffness", "damping"):
             if getattr(self, f) >= 1:
                 raise ValueError(f"perturbation {f} is relative and must be < 1, got {getattr(self, f)}")
+        if self.bristle_from > self.bristle:
+            raise ValueError(f"perturbation bristle_from ({self.bristle_from:g}) is where the bristle's range of "
+                             f"decades starts: it must be <= bristle ({self.bristle:g})")
         if self.relief > 1:
             raise ValueError(f"perturbation relief is a share of the roughness and must be <= 1, got {self.relief}")
         if self.latency not in (0, 1):
@@ -140,6 +145,8 @@ MEANING = {
     "jitter": "every gene moved by noise of this standard deviation, rad",
     "bristle": "the foot's friction spring made up to 10^x times stiffer, in decades (e.g. 3: a gait must then walk "
                "on any foot from soft to stiff, which is what carries over to MuJoCo)",
+    "bristle_from": "where the bristle's range starts, in decades (default 0: from the model's own spring; e.g. 1 with "
+                    "bristle=3: every episode's foot 10 to 1000 times stiffer, none as soft as the model's)",
     "torque": "each servo's torque limit scaled by 1 + U(-x, x)",
     "stiffness": "the ground's stiffness scaled by 1 + U(-x, x)",
     "damping": "the ground's damping scaled by 1 + U(-x, x)",
@@ -156,8 +163,8 @@ MEANING = {
 }
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
-LATER = {"torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0, "latency": 0,
-         "command": 0.0, "speed": 0.0}
+LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
+         "latency": 0, "command": 0.0, "speed": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the
@@ -210,7 +217,11 @@ def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
     shift = jnp.stack([u(ks[0], (), SHIFT[0]), u(ks[1], (), SHIFT[1])]) if p.roughness > 0 else jnp.zeros(2)
     # the bristle's draw has its own key (folded in), so that adding it left every other draw as it was; so have
     # the later ones (each drawn only when its range is not 0: otherwise the field is None, the model's value)
-    decades = 0.5 * p.bristle * (1.0 + u(jax.random.fold_in(key, 8), (), 1.0))
+    if p.bristle_from:
+        span = p.bristle - p.bristle_from
+        decades = p.bristle_from + 0.5 * span * (1.0 + u(jax.random.fold_in(key, 8), (), 1.0))
+    else:
+        decades = 0.5 * p.bristle * (1.0 + u(jax.random.fold_in(key, 8), (), 1.0))
     more = {}
     for i, (f, shape) in enumerate((("torque", (model.n_ctrl,)), ("stiffness", ()), ("damping", ()))):
         if getattr(p, f) > 0:

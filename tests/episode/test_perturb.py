@@ -28,6 +28,16 @@ def test_the_domain_preset_draws_every_range_within_its_bounds_and_spans_it():
     assert np.abs(offsets).max() <= np.sqrt(3) * p.jitter * (1 + 1e-6)
 
 
+def test_the_bristle_can_be_kept_stiffer_than_the_models_own():
+    """``bristle_from=1,bristle=3``: every foot 10 to 1000 times stiffer than the model's, the whole range drawn."""
+    m = rig()
+    p = Perturbations.from_settings({"bristle": 3.0, "bristle_from": 1.0})
+    keys = jax.random.split(jax.random.key(5), 512)
+    d = np.log10(np.asarray(jax.jit(lambda k: draw(m, p, k, 40))(keys)[0].bristle))
+    assert d.min() >= 1 - 1e-6 and d.max() <= 3 + 1e-6 and d.min() < 1.05 and d.max() > 2.95
+    assert "bristle_from" in p.to_dict() and "bristle_from" not in Perturbations(bristle=3.0).to_dict()
+
+
 def test_ranges_left_off_add_no_field_and_no_record():
     """Without the later ranges the draws and the record are those of the runs made before them (they resume)."""
     m = rig()
@@ -56,7 +66,8 @@ def test_the_run_records_every_range_drawn_and_the_controller_family():
 
 @pytest.mark.parametrize("bad, message", [({"latency": 2}, "latency is 0 or 1"), ({"relief": 1.5}, "relief"),
                                           ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown"),
-                                          ({"speed": 0.12}, "give command too")])
+                                          ({"speed": 0.12}, "give command too"),
+                                          ({"bristle": 1.0, "bristle_from": 2.0}, "bristle_from")])
 def test_bad_ranges_are_refused(bad, message):
     with pytest.raises(ValueError, match=message):
         Perturbations.from_settings(bad)
