@@ -42,14 +42,22 @@ def _ctl(path, groups: str, w: float = 0.0) -> str:
     (["--ctl", "a.ctl", "--engine", "mujoco", "--video", "VIDEO"], "--video draws our simulator's walk"),
     (["--repertoire", "r.h5", "--engine", "mujoco"], "--engine: with --ctl only"),
     (["--repertoire", "r.h5", "--mujoco-dt", "0.001"], "--mujoco-dt: with --ctl only"),
+    (["--ctl", "HEXAPOD", "--engine", "mujoco"], "made for hexapod.wl, not quadruped.wl"),
+    (["--ctl", "SPRINGS", "--engine", "both", "--pipeline", "exact"], "springs"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(argv, message, tmp_path, capsys):
     blind = _ctl(tmp_path / "blind.ctl", "pmtg:tilt+contact+bias")      # a closed loop that reads no command
-    argv = [blind if a == "BLIND" else str(tmp_path / "v.mp4") if a == "VIDEO" else a for a in argv]
+    text = open(_ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias", 1.0)).read()
+    (tmp_path / "turn.ctl").unlink()
+    headed = {"HEXAPOD": "# model: hexapod.wl\n", "SPRINGS": "# model: quadruped.wl\n# pipeline: springs\n"}
+    for name, head in headed.items():                    # a steering controller whose header names another model
+        (tmp_path / f"{name}.ctl").write_text(head + text)                      # or pipeline
+    argv = [blind if a == "BLIND" else str(tmp_path / "v.mp4") if a == "VIDEO" else
+            str(tmp_path / f"{a}.ctl") if a in headed else a for a in argv]
     rc = main(["follow", MODEL, *argv, "--path", "line:1", "--out", str(tmp_path / "w.json")])
     err = capsys.readouterr().err
     assert rc == 2 and message in err and len(err.strip().splitlines()) == 1
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["blind.ctl"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["HEXAPOD.ctl", "SPRINGS.ctl", "blind.ctl"]
 
 
 def test_the_walks_in_mujoco_are_measured_and_written_as_ours(tmp_path, capsys):
