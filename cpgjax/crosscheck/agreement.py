@@ -119,9 +119,9 @@ def watch_ours(model, controller, time: float, sample: float = SAMPLE) -> tuple[
     zg, nz = np.asarray(zg), np.asarray(n[2]) + np.zeros(p[:, 0].shape)
     depth = zg - p[:, 2]
     Rt = quat_to_mat_np(np.moveaxis(q[:, :, model.track], 1, 0))    # [3, 3, S, B]
+    k = [np.nonzero(feet[j])[0][0] for j in range(feet.shape[0])]       # the first vertex of each foot
     watches = []
     for b in range(p.shape[-1]):
-        k = [np.nonzero(feet[j])[0][0] for j in range(feet.shape[0])]   # the first vertex of each foot
         watches.append(Watch(feet=np.moveaxis(p[:, :, k, b], 1, 2), touch=depth[:, k, b] > 0,
                              depth=np.maximum(depth[:, k, b], 0.0), nz=nz[:, k, b], up=Rt[2, 2, :, b]))
     return {"speed": out["speed"], "fallen": out["fallen"]}, watches
