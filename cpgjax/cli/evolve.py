@@ -47,7 +47,8 @@ def register(subparsers: Any) -> None:
         p.add_argument("--start", default=None, metavar="CTL",
                        help="start the search from this controller (.ctl) instead of the thesis's one 0.5 Hz "
                             "sinusoid per joint (the GA moves each of its genes by --init-spread); recorded in the "
-                            "run file")
+                            "run file.  A closed-loop start may read fewer sensor groups than --controller: the "
+                            "others get weights of 0")
         o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
         o.controller_option(p)
         o.seed_option(p, None, shown=d.seed)

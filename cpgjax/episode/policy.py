@@ -219,6 +219,26 @@ def from_genomes(family: Family | None, model, genomes, command=None, key=None, 
     return ClosedLoop(family, coeffs, w, command, key, steer)
 
 
+def widen(controller: ClosedLoop, family: Family, model) -> ClosedLoop:
+    """``controller`` (one robot) as a controller of ``family``, whose policy reads every group it reads and more:
+    the weights of the groups it does not read are 0, so it acts as before whatever they read (a fast gait made the
+    start of one that learns to read the command).  ValueError naming the groups when ``family`` lacks one."""
+    have = dict(controller.family.input_sizes(model))
+    missing = [g for g in have if g not in family.inputs]
+    if missing:
+        raise ValueError(f"a policy reading {'+'.join(controller.family.inputs)} cannot be read as "
+                         f"{family.plain.spec}: it lacks {', '.join(missing)}")
+    w = np.asarray(controller.weights, np.float32)
+    cols, at = [], 0
+    for g, n in controller.family.input_sizes(model):
+        cols.append((g, w[:, at:at + n]))
+        at += n
+    cols = dict(cols)
+    wide = np.concatenate([cols.get(g, np.zeros((w.shape[0], n), np.float32)) for g, n in family.input_sizes(model)],
+                          axis=1)
+    return ClosedLoop(family.plain, controller.coeffs, wide, controller.command, controller.key, controller.steer)
+
+
 def to_genome(controller: ClosedLoop, model, family: Family | None = None) -> np.ndarray:
     """[G] the genome of one closed-loop controller (its weights divided by their scale) in ``family``'s layout
     (default the controller's; a ``mirror`` family's when the controller is mirror-symmetric, else

@@ -21,7 +21,7 @@ from cpgjax.episode.cpg import sinusoid_genome
 from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.episode.mirror import MirrorError
 from cpgjax.episode.perturb import Perturbations, check_controller, commands, draw, noise_key, roughened
-from cpgjax.episode.policy import Family, from_control, from_genomes, from_table, parse_controller, to_genome
+from cpgjax.episode.policy import Family, from_control, from_genomes, parse_controller, to_genome, widen
 from cpgjax.episode.policy import base_genome as policy_base
 from cpgjax.io.wl import load_model
 from cpgjax.optim.analytic import analytic_problem
@@ -97,14 +97,13 @@ def start_genome(path: str, problem: Problem) -> np.ndarray:
     family = parse_controller(problem.meta.get("controller"))
     if family is not None:        # a closed-loop problem: the controller's policy, else a policy of zeros
         model = load_model(problem.meta["model_path"], pipeline=problem.meta.get("pipeline"))
-        if c.policy is not None and from_table(c.policy, model, c.path) != family.plain:
-            raise ValueError(f"--start {path}: its policy ({c.policy.name}) is not this run's "
-                             f"--controller {family.spec}")
         try:
-            g = to_genome(from_control(c, model), model, family) if c.policy is not None else \
-                policy_base(family, model, g).astype(np.float32)
-        except MirrorError as e:
-            raise ValueError(f"--start {path}: {e}") from None
+            if c.policy is not None:     # the same policy, or one reading fewer groups (their weights made 0)
+                g = to_genome(widen(from_control(c, model), family, model), model, family)
+            else:
+                g = policy_base(family, model, g).astype(np.float32)
+        except (MirrorError, ValueError) as e:
+            raise ValueError(f"--start {path}: {e}; this run's --controller is {family.spec}") from None
     elif c.policy is not None:
         raise ValueError(f"--start {path}: a closed-loop controller; add --controller {c.policy.name}")
     return np.clip(g, problem.lower, problem.upper)

@@ -96,3 +96,30 @@ def test_a_mirror_run_starts_from_the_trot_with_its_reduced_genome():
     c = from_genomes(parse_controller(STEER), quad, np.asarray(p.base_genome, np.float32)[None])
     np.testing.assert_allclose(c.coeffs[0], read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs)
     np.testing.assert_array_equal(c.weights, 0.0)
+
+
+def test_a_gait_reading_fewer_groups_starts_a_steering_run_with_the_command_weights_zero(tmp_path):
+    """A fast gait (tilt+contact+bias) as the start of a run that learns to read the command: its weights kept,
+    those of command and steer 0; a start reading a group the run's policy lacks is refused naming it."""
+    from cpgjax.episode import policy as pol
+    from cpgjax.io.ctl import PolicyTable, write_ctl
+    from cpgjax.optim.factory import make_problem
+
+    quad = load_model("models/quadruped.wl", pipeline="exact")
+    fast = parse_controller("pmtg:tilt+contact+bias:mirror")
+    p0 = make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller=fast.spec, perturb={},
+                      start="models/quadruped-trot.ctl")
+    g = np.asarray(p0.base_genome, np.float32) + np.random.default_rng(3).uniform(-0.3, 0.3, p0.n_genes).astype(
+        np.float32)
+    c = pol.from_genomes(fast, quad, g[None])[0]
+    path = tmp_path / "fast.ctl"
+    write_ctl(path, np.asarray(c.coeffs), policy=PolicyTable(**pol.table_fields(c, quad)), exact=True)
+    p = make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller=STEER,
+                     perturb={"command": 0.3}, start=str(path))
+    w = from_genomes(parse_controller(STEER), quad, np.asarray(p.base_genome, np.float32)[None]).weights[0]
+    np.testing.assert_allclose(w[:, :6], c.weights[:, :6], rtol=1e-6)      # roll, pitch, the four feet
+    np.testing.assert_allclose(w[:, 9], c.weights[:, 6], rtol=1e-6)        # the bias
+    np.testing.assert_array_equal(w[:, 6:9], 0.0)                           # command, c sin, c cos
+    with pytest.raises(ValueError, match="lacks tilt"):
+        make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller="pmtg:contact+bias:mirror",
+                     perturb={}, start=str(path))
