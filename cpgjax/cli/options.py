@@ -209,9 +209,10 @@ def controller_option(p: argparse.ArgumentParser) -> None:
                         "the CPG modulated every step by a linear feedback policy reading the robot's sensors, "
                         "which shifts each joint's target and speeds up, slows down or scales the CPG; GROUP+GROUP "
                         f"names what it reads, of {', '.join(GROUPS)} (joint angles, body roll and pitch, their "
-                        "rates, foot contacts, the CPG's phase, a turning command, the command times the phase, a "
-                        "constant; default all but steer). :mirror: a mirror-symmetric genome, the right legs "
-                        "evolved and the left ones derived from them (docs/closed-loop.md, docs/glossary.md)")
+                        "rates, foot contacts, the CPG's phase, a turning command, the command times the phase, the "
+                        "command's size, a constant; default all but steer and turn). :mirror: a mirror-symmetric "
+                        "genome, the right legs evolved and the left ones derived from them (docs/closed-loop.md, "
+                        "docs/glossary.md)")
 
 
 TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"

@@ -321,6 +321,8 @@ def mujoco_observe(model, mj, datas, groups, phase, command, leg_of=None) -> np.
             out.append(np.asarray(command, float).reshape(N, 1))
         elif g == "steer":
             out.append(np.stack(phase, 1) * np.asarray(command, float).reshape(N, 1))
+        elif g == "turn":
+            out.append(np.abs(np.asarray(command, float)).reshape(N, 1))
         elif g == "bias":
             out.append(np.ones((N, 1)))
         else:

@@ -15,10 +15,10 @@ direction of turning, holds for the other:
 - **the policy** ``u = W obs``: mirrored, each reading becomes its partner's times a sign ``s`` (a joint's angle: its
   partner's times ``sigma``; roll and its rate change sign, pitch and its rate keep it; a foot's contact: its mirror
   foot's; the CPG's phase (sin, cos), half a period on: both negated; the command, a turning rate: negated; the
-  command times the phase: kept; the bias: kept).  A partner joint's offsets row is then its own, read through the
-  mirror, ``W[p(i), j] = sigma_i s_j W[i, m(j)]``, and the frequency's and amplitude's rows (one number for the
-  whole robot) are mirror-invariant, ``W[g, j] = s_j W[g, m(j)]``: a reading whose mirror image is its own negative
-  (roll, the command) cannot move them, a pair of readings moves them equally.
+  command times the phase: kept; its size ``turn``: kept; the bias: kept).  A partner joint's offsets row is then
+  its own, read through the mirror, ``W[p(i), j] = sigma_i s_j W[i, m(j)]``, and the frequency's and amplitude's rows
+  (one number for the whole robot) are mirror-invariant, ``W[g, j] = s_j W[g, m(j)]``: a reading whose mirror image is
+  its own negative (roll, the command) cannot move them, a pair of readings moves them equally.
 
 The genome is the full one's free genes, in the full genome's order (:class:`Mirror`): the quadruped with
 ``pmtg:tilt+contact+command+steer+bias`` has 72 genes instead of 140.  A `.ctl` file holds the expanded controller
@@ -138,7 +138,7 @@ def input_map(model, family) -> tuple[np.ndarray, np.ndarray]:
         else:
             m += [at + k for k in range(n)]
             s += {"tilt": [-1.0, 1.0], "rates": [-1.0, 1.0], "phase": [-1.0, -1.0], "command": [-1.0],
-                  "steer": [1.0, 1.0], "bias": [1.0]}[g]
+                  "steer": [1.0, 1.0], "turn": [1.0], "bias": [1.0]}[g]
         at += n
     return np.asarray(m), np.asarray(s)
 

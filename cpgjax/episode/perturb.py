@@ -87,6 +87,7 @@ class Perturbations:
     latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
     command: float = 0.0       # rad/s: range of the commanded turning rate (0: no command, eq. 4.6's score)
     speed: float = 0.0         # m/s: the tracking fitness credits the speed up to this (0: no cap; needs command)
+    turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -95,7 +96,7 @@ class Perturbations:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
         for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "bristle_from",
-                  "torque", "stiffness", "damping", "relief", "noise", "command", "speed"):
+                  "torque", "stiffness", "damping", "relief", "noise", "command", "speed", "turn_speed"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -112,6 +113,10 @@ class Perturbations:
         if self.speed > 0 and self.command == 0:
             raise ValueError("perturbation speed caps the tracking fitness of a commanded turning rate: give command "
                              "too (e.g. command=0.3,speed=0.12)")
+        if self.turn_speed > 0 and not (0 < self.turn_speed <= self.speed):
+            raise ValueError(f"perturbation turn_speed ({self.turn_speed:g}) is the speed credited at a full turn, "
+                             f"the cap falling to it from speed at no turn: give speed too, at least as large "
+                             f"(e.g. command=0.4,speed=0.6,turn_speed=0.2)")
         if self.fall_zero and self.fall_survival:
             raise ValueError("fall_zero and fall_survival exclude each other: a fall forfeits the episode or scales it")
 
@@ -157,6 +162,8 @@ MEANING = {
     "command": "closed-loop controllers that read the command only: a turning rate drawn up to +-x rad/s for each "
                "half of the episode, the score how well the robot follows it (steering)",
     "speed": "with command: the steering score credits speed up to this, m/s (0: no cap)",
+    "turn_speed": "with speed: the cap falls from speed at no turn to this at a full turn (the episode's mean "
+                  "abs(command) over command), m/s: a gait fast on a straight line and slow in a tight turn",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
     "fall_zero": "when on, a fall forfeits the episode, it scores 0",
     "fall_survival": "when on, a fall scales the episode's score by the share of it before the fall",
@@ -164,7 +171,7 @@ MEANING = {
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
-         "latency": 0, "command": 0.0, "speed": 0.0}
+         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the

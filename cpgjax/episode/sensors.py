@@ -22,10 +22,13 @@ those sensors read, in groups (a closed-loop controller reads some or all of the
 - ``steer`` [2]: ``c sin`` and ``c cos`` of the CPG's phase: with them a linear policy can change each joint's first
   harmonic in proportion to the command (a longer stride on one side, which is how a trotting quadruped turns),
   which ``command`` alone, a constant offset, cannot;
+- ``turn`` [1]: ``|c|``, how hard the robot is told to turn, whichever way: a mirror-symmetric policy
+  (:mod:`cpgjax.episode.mirror`) can move its frequency and amplitude, which are the same for both sides, only by
+  readings that the mirror keeps, so without ``turn`` it cannot slow its gait down in a turn;
 - ``bias`` [1]: the constant 1.
 
-A family reads every group but ``steer`` unless it names its groups (:data:`DEFAULT_GROUPS`, the groups that
-existed before ``steer``: the closed-loop runs and `.ctl` files made before it read as they did).
+A family reads every group but ``steer`` and ``turn`` unless it names its groups (:data:`DEFAULT_GROUPS`, the
+groups that existed before them: the closed-loop runs and `.ctl` files made before them read as they did).
 
 Each group has a scale (:data:`SCALES`): the size of a typical reading, by which the policy's weights are scaled
 (:mod:`cpgjax.episode.policy`) and sensor noise is sized (:func:`noise`).
@@ -45,12 +48,12 @@ from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.rotation import matTvec, matvec, quat_to_mat
 
 #: The observation's groups, in the order they are stacked.
-GROUPS = ("angles", "tilt", "rates", "contact", "phase", "command", "steer", "bias")
+GROUPS = ("angles", "tilt", "rates", "contact", "phase", "command", "steer", "turn", "bias")
 #: The groups a family reads when it names none (``--controller pmtg``).
-DEFAULT_GROUPS = tuple(g for g in GROUPS if g != "steer")
-#: The typical size of a group's readings (rad, rad, rad/s, 1, 1, rad/s, rad/s, 1).
+DEFAULT_GROUPS = tuple(g for g in GROUPS if g not in ("steer", "turn"))
+#: The typical size of a group's readings (rad, rad, rad/s, 1, 1, rad/s, rad/s, rad/s, 1).
 SCALES = {"angles": 1.0, "tilt": 0.5, "rates": 2.0, "contact": 1.0, "phase": 1.0, "command": 1.0, "steer": 0.25,
-          "bias": 1.0}
+          "turn": 0.25, "bias": 1.0}
 #: The groups that are sensors: noise is added to them, not to the CPG's phase, the command (and ``steer``) or the
 #: bias.
 SENSED = ("angles", "tilt", "rates", "contact")
@@ -59,7 +62,7 @@ SENSED = ("angles", "tilt", "rates", "contact")
 def sizes(model) -> dict[str, int]:
     """The number of readings of each group for ``model``."""
     return {"angles": model.n_ctrl, "tilt": 2, "rates": 2, "contact": int(legs(model)[1].shape[0]), "phase": 2,
-            "command": 1, "steer": 2, "bias": 1}
+            "command": 1, "steer": 2, "turn": 1, "bias": 1}
 
 
 def _feet(model):
@@ -135,6 +138,8 @@ def observe(model, groups, s, var, phase, command):
             parts.append(command[None])
         elif g == "steer":
             parts.append(jnp.stack(phase) * command[None])
+        elif g == "turn":
+            parts.append(jnp.abs(command)[None])
         else:
             parts.append(jnp.ones((1,) + command.shape, command.dtype))
     return jnp.concatenate(parts, 0)

@@ -154,7 +154,7 @@ def track_finish(acc, T: float, switch: float, first, second):
 
 def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0):
     """``heading_fitness x max(0, 1 - turn_error / (TOLERANCE limit))``, the heading fitness taken up to ``cap`` m/s
-    when ``cap > 0`` (see the module docstring)."""
-    if cap > 0:
+    when ``cap > 0`` (a number, or one per episode; see the module docstring)."""
+    if not isinstance(cap, (int, float)) or cap > 0:     # an array: a cap per episode (perturb turn_speed)
         heading_fitness = jnp.minimum(heading_fitness, cap)
     return heading_fitness * jnp.maximum(0.0, 1.0 - turn_error / (TOLERANCE * limit))

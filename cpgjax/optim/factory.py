@@ -170,13 +170,17 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
                    evaluate=evaluate_genomes, meta=meta)
 
 
-def episode_scores(r: dict, p: Perturbations, steered: bool = False) -> dict:
+def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) -> dict:
     """An episode's results ``r`` with its fitness as the robust evaluation scores it: the tracking fitness of a
-    commanded turning rate (``steered``: :func:`cpgjax.episode.steering.tracking_fitness`, capped at ``p.speed``),
-    not eq. 4.6's; then a fall forfeits the episode (``fall_zero``) or scales it by the share of it the robot stayed
-    up (``fall_survival``)."""
+    commanded turning rate (``steered``: :func:`cpgjax.episode.steering.tracking_fitness`, capped at ``p.speed``;
+    with ``p.turn_speed`` the cap falls linearly to it as ``turn`` [episodes], the episode's mean ``abs(command)``,
+    rises to ``p.command``), not eq. 4.6's; then a fall forfeits the episode (``fall_zero``) or scales it by the share
+    of it the robot stayed up (``fall_survival``)."""
     if steered:
-        r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command, p.speed))
+        cap = p.speed
+        if p.turn_speed > 0:
+            cap = p.speed - (p.speed - p.turn_speed) * jnp.minimum(turn / p.command, 1.0)
+        r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command, cap))
     if p.fall_zero:
         r = dict(r, fitness=jnp.where(r["down"], 0.0, r["fitness"]))
     elif p.fall_survival:
@@ -240,7 +244,8 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
             steer = steering.Schedule(c[0], c[1], switch, p.command)
         r = evaluate(model, controllers(family, model, g, nk, steer), time=T, delta=delta, chunk=chunk, var=var,
                      fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, **sensing)
-        r = episode_scores(r, p, steered=steer is not None)
+        turn = None if steer is None else (switch * jnp.abs(c[0]) + (T - switch) * jnp.abs(c[1])) / T
+        r = episode_scores(r, p, steered=steer is not None, turn=turn)
         out = {}
         for key in METRICS + (("turn_error",) if steer is not None else ()):
             v = r[key].reshape(n, R)

@@ -45,7 +45,7 @@ def test_a_robot_standing_on_its_feet_reads_every_foot_down_no_tilt_and_its_join
     """The design pose: feet on the ground (depth 0), body level, at rest."""
     o = _split(quad, _obs(quad, initial_state(quad, 2)))
     assert sensors.sizes(quad) == {"angles": 8, "tilt": 2, "rates": 2, "contact": 4, "phase": 2, "command": 1,
-                                   "steer": 2, "bias": 1}
+                                   "steer": 2, "turn": 1, "bias": 1}
     np.testing.assert_array_equal(o["contact"], 1.0)
     np.testing.assert_array_equal(o["tilt"], 0.0)
     np.testing.assert_array_equal(o["rates"], 0.0)
@@ -53,6 +53,7 @@ def test_a_robot_standing_on_its_feet_reads_every_foot_down_no_tilt_and_its_join
     np.testing.assert_array_equal(o["phase"], [[0.25, 0.25], [0.5, 0.5]])
     np.testing.assert_array_equal(o["command"], np.float32(-0.1))
     np.testing.assert_array_equal(o["steer"], np.float32(-0.1) * np.float32([[0.25, 0.25], [0.5, 0.5]]))
+    np.testing.assert_array_equal(o["turn"], np.float32(0.1))                # |c|, whichever way it turns
     np.testing.assert_array_equal(o["bias"], 1.0)
 
 

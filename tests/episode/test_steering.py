@@ -80,7 +80,8 @@ def test_the_command_reaches_the_observation_as_command_and_times_the_phase():
     np.testing.assert_array_equal(obs[1], np.float32(c * sin))
     np.testing.assert_array_equal(obs[2], np.float32(c * cos))
     np.testing.assert_array_equal(obs[3], 1.0)
-    assert pol.parse_controller("pmtg").inputs == sensors.DEFAULT_GROUPS and "steer" not in sensors.DEFAULT_GROUPS
+    assert pol.parse_controller("pmtg").inputs == sensors.DEFAULT_GROUPS and "steer" not in sensors.DEFAULT_GROUPS \
+        and "turn" not in sensors.DEFAULT_GROUPS
     fam = pol.parse_controller("pmtg:tilt+contact+command+steer+bias")
     assert fam.n_in(m) == 2 + 4 + 1 + 2 + 1 and fam.spec == "pmtg:tilt+contact+command+steer+bias"
 

@@ -107,3 +107,24 @@ def test_a_fall_forfeits_the_episode_with_fall_zero_and_scales_it_with_fall_surv
     assert np.all((share >= 0) & (share < 1)) and np.allclose(share * 4, np.round(share * 4))
     with pytest.raises(ValueError, match="exclude each other"):
         Perturbations(fall_zero=True, fall_survival=True)
+
+
+def test_turn_speed_lowers_the_credited_speed_as_the_episode_turns_harder():
+    """``turn_speed``: the tracking fitness credits the speed up to ``speed`` on a straight episode, falling linearly to
+    ``turn_speed`` on one commanded to turn at the full range; without it the cap is ``speed`` whatever the turn."""
+    import jax.numpy as jnp
+
+    from cpgjax.episode.perturb import Perturbations
+    from cpgjax.optim.factory import episode_scores
+
+    r = {"heading_fitness": jnp.ones(4), "turn_error": jnp.zeros(4)}
+    turn = jnp.asarray([0.0, 0.2, 0.4, 0.3])
+    p = Perturbations(command=0.4, speed=0.6, turn_speed=0.2)
+    np.testing.assert_allclose(episode_scores(r, p, steered=True, turn=turn)["fitness"], [0.6, 0.4, 0.2, 0.3],
+                               rtol=1e-6)
+    flat = Perturbations(command=0.4, speed=0.6)
+    np.testing.assert_allclose(episode_scores(r, flat, steered=True, turn=turn)["fitness"], 0.6, rtol=1e-6)
+    assert "turn_speed" not in flat.to_dict()               # off: the run files made before it record as they did
+    for bad in ({"command": 0.4, "turn_speed": 0.2}, {"command": 0.4, "speed": 0.1, "turn_speed": 0.2}):
+        with pytest.raises(ValueError, match="turn_speed"):
+            Perturbations(**bad)
