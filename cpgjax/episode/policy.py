@@ -229,11 +229,9 @@ def widen(controller: ClosedLoop, family: Family, model) -> ClosedLoop:
         raise ValueError(f"a policy reading {'+'.join(controller.family.inputs)} cannot be read as "
                          f"{family.plain.spec}: it lacks {', '.join(missing)}")
     w = np.asarray(controller.weights, np.float32)
-    cols, at = [], 0
+    cols, at = {}, 0
     for g, n in controller.family.input_sizes(model):
-        cols.append((g, w[:, at:at + n]))
-        at += n
-    cols = dict(cols)
+        cols[g], at = w[:, at:at + n], at + n
     wide = np.concatenate([cols.get(g, np.zeros((w.shape[0], n), np.float32)) for g, n in family.input_sizes(model)],
                           axis=1)
     return ClosedLoop(family.plain, controller.coeffs, wide, controller.command, controller.key, controller.steer)
