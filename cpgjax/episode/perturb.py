@@ -85,6 +85,7 @@ class Perturbations:
     relief: float = 0.0        # share: the rough field's heights scaled by 1 - U(0, relief) per episode
     noise: float = 0.0         # sensor noise, in each sensor's scale (sd; closed-loop controllers)
     latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
+    touch: float = 0.0         # m: each touch sensor reads its foot down from a depth U(-x, x), drawn per episode
     command: float = 0.0       # rad/s: range of the commanded turning rate (0: no command, eq. 4.6's score)
     speed: float = 0.0         # m/s: the tracking fitness credits the speed up to this (0: no cap; needs command)
     turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
@@ -96,7 +97,7 @@ class Perturbations:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
         for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "bristle_from",
-                  "torque", "stiffness", "damping", "relief", "noise", "command", "speed", "turn_speed"):
+                  "torque", "stiffness", "damping", "relief", "noise", "command", "speed", "turn_speed", "touch"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -108,6 +109,9 @@ class Perturbations:
                              f"decades starts: it must be <= bristle ({self.bristle:g})")
         if self.relief > 1:
             raise ValueError(f"perturbation relief is a share of the roughness and must be <= 1, got {self.relief}")
+        if self.touch > 0.01:
+            raise ValueError(f"perturbation touch is the touch sensors' threshold, in m, and must be <= 0.01 "
+                             f"(1 cm), got {self.touch:g}")
         if self.latency not in (0, 1):
             raise ValueError(f"perturbation latency is 0 or 1 step, got {self.latency}")
         if self.speed > 0 and self.command == 0:
@@ -159,6 +163,8 @@ MEANING = {
               "from flat to fully rough)",
     "noise": "closed-loop controllers only: sensor noise, its standard deviation in each sensor's typical size",
     "latency": "closed-loop controllers only: 0 or 1 step between sensing and acting",
+    "touch": "closed-loop controllers reading contact only: each leg's touch sensor reads its foot down from a depth "
+             "U(-x, x) drawn per episode, m (e.g. 0.001: a gait cannot live on the millisecond its foot lands)",
     "command": "closed-loop controllers that read the command only: a turning rate drawn up to +-x rad/s for each "
                "half of the episode, the score how well the robot follows it (steering)",
     "speed": "with command: the steering score credits speed up to this, m/s (0: no cap)",
@@ -171,7 +177,7 @@ MEANING = {
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
-         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0}
+         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the
@@ -191,6 +197,9 @@ def check_controller(p: Perturbations, family) -> None:
         if family is None and getattr(p, key):
             raise ValueError(f"perturbation {key}: the open-loop CPG reads no sensor, so {what} would change "
                              "nothing; it applies to a closed-loop controller (--controller pmtg, docs/closed-loop.md)")
+    if p.touch > 0 and (family is None or "contact" not in family.inputs):
+        raise ValueError("perturbation touch: the controller must read its touch sensors (--controller "
+                         "pmtg:...+contact+..., e.g. pmtg:tilt+contact+bias)")
     if p.command > 0 and (family is None or "command" not in family.inputs):
         raise ValueError("perturbation command: the controller must read the command (--controller "
                          "pmtg:...+command+..., e.g. pmtg:tilt+contact+command+steer+bias)")
@@ -259,6 +268,17 @@ def commands(keys: jax.Array, limit: float) -> jax.Array:
     c = jax.vmap(lambda k: jax.random.uniform(jax.random.fold_in(k, COMMAND_STREAM), (2,), jnp.float32,
                                               -1.0, 1.0))(keys)
     return jax.lax.optimization_barrier(limit * c.T)
+
+
+TOUCH_STREAM = 15   # folded into a robot's key: the key of its touch sensors' thresholds
+
+
+def touch_thresholds(keys: jax.Array, legs: int, reach: float) -> jax.Array:
+    """[N, legs] the depth (m) from which each robot's touch sensors read their foot down, ``U(-reach, reach)``,
+    from its episode's key [N] (:data:`TOUCH_STREAM`; :func:`cpgjax.episode.sensors.touch`)."""
+    u = jax.vmap(lambda k: jax.random.uniform(jax.random.fold_in(k, TOUCH_STREAM), (legs,), jnp.float32,
+                                              -1.0, 1.0))(keys)
+    return jax.lax.optimization_barrier(reach * u)
 
 
 def draw(model, p: Perturbations, keys: jax.Array, n_genes: int) -> tuple[Variation, jax.Array]:

@@ -152,24 +152,27 @@ class ClosedLoop:
     genes: :func:`from_genomes`); ``command`` [...] each robot's commanded turning rate (rad/s), constant; ``key``
     [..., 2] uint32 or None: the raw key of each robot's sensor noise; ``steer`` None or a source of the command
     computed in the episode's scan instead (:class:`cpgjax.episode.steering.Schedule` or ``Course``, its arrays with
-    the same robot axis).  ``family`` is static (the pytree's aux data).
+    the same robot axis); ``touch`` [..., legs] or None: the depth (m) at which each leg's touch sensor reads its
+    foot down (None: 0, the contact law's own test; :func:`cpgjax.episode.sensors.touch`).  ``family`` is static
+    (the pytree's aux data).
     """
 
-    def __init__(self, family: Family, coeffs, weights, command=None, key=None, steer=None):
+    def __init__(self, family: Family, coeffs, weights, command=None, key=None, steer=None, touch=None):
         self.family, self.coeffs, self.weights, self.command, self.key = family, coeffs, weights, command, key
-        self.steer = steer
+        self.steer, self.touch = steer, touch
 
     def tree_flatten(self):
-        return (self.coeffs, self.weights, self.command, self.key, self.steer), self.family
+        return (self.coeffs, self.weights, self.command, self.key, self.steer, self.touch), self.family
 
     @classmethod
     def tree_unflatten(cls, family, leaves):
         return cls(family, *leaves)
 
     def replace(self, **kw) -> ClosedLoop:
+        family = kw.pop("family", self.family)
         d = {"coeffs": self.coeffs, "weights": self.weights, "command": self.command, "key": self.key,
-             "steer": self.steer} | kw
-        return ClosedLoop(self.family, **d)
+             "steer": self.steer, "touch": self.touch} | kw
+        return ClosedLoop(family, **d)
 
     def __len__(self) -> int:          # robots first: the number of controllers
         return int(self.coeffs.shape[0])
@@ -191,8 +194,9 @@ def batch_size(controller: Any) -> int:
     return int(c.shape[0])
 
 
-def from_genomes(family: Family | None, model, genomes, command=None, key=None, steer=None):
-    """Genomes [N, G] to controllers: coefficients [N, n_ctrl, 2K+1] (open loop) or a :class:`ClosedLoop` [N].
+def from_genomes(family: Family | None, model, genomes, command=None, key=None, steer=None, touch=None):
+    """Genomes [N, G] to controllers: coefficients [N, n_ctrl, 2K+1] (open loop) or a :class:`ClosedLoop` [N]
+    (``command``, ``key``, ``steer``, ``touch``: its fields of those names).
 
     Traceable (numpy or JAX in, the same kind out).  The weights are the genes scaled (:func:`weight_scale`).
     """
@@ -216,7 +220,7 @@ def from_genomes(family: Family | None, model, genomes, command=None, key=None, 
     w = g[:, model.n_genes:].reshape(n, family.n_out(model), family.n_in(model)) * weight_scale(family, model)[None]
     if command is None:
         command = xp.zeros((n,), g.dtype)
-    return ClosedLoop(family, coeffs, w, command, key, steer)
+    return ClosedLoop(family, coeffs, w, command, key, steer, touch)
 
 
 def widen(controller: ClosedLoop, family: Family, model) -> ClosedLoop:
@@ -234,7 +238,7 @@ def widen(controller: ClosedLoop, family: Family, model) -> ClosedLoop:
         cols[g], at = w[:, at:at + n], at + n
     wide = np.concatenate([cols.get(g, np.zeros((w.shape[0], n), np.float32)) for g, n in family.input_sizes(model)],
                           axis=1)
-    return ClosedLoop(family.plain, controller.coeffs, wide, controller.command, controller.key, controller.steer)
+    return controller.replace(family=family.plain, weights=wide)
 
 
 def to_genome(controller: ClosedLoop, model, family: Family | None = None) -> np.ndarray:

@@ -137,7 +137,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     def sense(s, b, command):
         """The observation [in, B] of state ``s`` at the CPG's basis ``b`` (noise added)."""
         phase = (b[1], b[2]) if K else (jnp.zeros((B,), coeffs.dtype),) * 2
-        obs = sensors.observe(model, policy.family.inputs, s, var, phase, command)
+        obs = sensors.observe(model, policy.family.inputs, s, var, phase, command, policy.touch)
         if noise:
             amp = noise * sensors.noise_scale(model, policy.family.inputs)
             # kept apart from the sum (cf. episode.perturb._one): the same bits in every program

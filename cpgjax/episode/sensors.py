@@ -72,8 +72,13 @@ def _feet(model):
     return vert, leg, feet.shape[0]
 
 
-def touch(model, s, var=None):
-    """[legs, B] 1.0 where a leg's foot touches the terrain (some vertex of it at depth >= 0), else 0.0."""
+def touch(model, s, var=None, at=None):
+    """[legs, B] 1.0 where a leg's foot touches the terrain (some vertex of it at depth >= 0), else 0.0.
+
+    ``at`` [legs, B] (m) or None: each leg's sensor reads its foot down from that depth on instead of 0 (negative: a
+    little before the foot touches, positive: once it is pressed in; the perturbation ``touch``, which draws it per
+    episode, so that a gait cannot live on when exactly a foot's contact begins, :mod:`cpgjax.episode.perturb`).
+    """
     vert, leg, n_legs = _feet(model)
     B = s.x.shape[-1]
     if n_legs == 0:
@@ -82,7 +87,10 @@ def touch(model, s, var=None):
     body = np.asarray(model.pt_body)[pts]
     R = quat_to_mat(s.q[:, body])                                       # [3, 3, nf, B]
     p = s.x[:, body] + matvec(R, jnp.asarray(model.pt_local[:, pts], s.x.dtype)[:, :, None])
-    if model.terrain.flat:
+    if at is not None:
+        depth = -p[2] if model.terrain.flat else terrain_under(model, p[0], p[1], var)[0] - p[2]
+        down = depth >= jnp.asarray(at, depth.dtype)[leg]
+    elif model.terrain.flat:
         down = p[2] <= 0
     else:
         zg, _ = terrain_under(model, p[0], p[1], var)
@@ -114,10 +122,11 @@ def angles(model, s):
     return joint_angles(model, R, s.w)[0][model.ctrl_joint]
 
 
-def observe(model, groups, s, var, phase, command):
+def observe(model, groups, s, var, phase, command, touch_at=None):
     """The observation [n, B]: the readings of ``groups`` (in :data:`GROUPS` order) stacked.
 
-    ``phase``: (sin, cos) [B] of the CPG's phase; ``command`` [B] the commanded turning rate.
+    ``phase``: (sin, cos) [B] of the CPG's phase; ``command`` [B] the commanded turning rate; ``touch_at`` [legs, B]
+    or None: the depth from which each touch sensor reads (:func:`touch`).
     """
     parts = []
     tilt = rates = None
@@ -131,7 +140,7 @@ def observe(model, groups, s, var, phase, command):
                 tilt, rates = vestibular(model, s)
             parts.append(tilt if g == "tilt" else rates)
         elif g == "contact":
-            parts.append(touch(model, s, var))
+            parts.append(touch(model, s, var, touch_at))
         elif g == "phase":
             parts.append(jnp.stack(phase))
         elif g == "command":

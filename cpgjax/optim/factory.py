@@ -18,9 +18,18 @@ import numpy as np
 from cpgjax.episode import steering
 from cpgjax.episode.batch import LANES, evaluate
 from cpgjax.episode.cpg import sinusoid_genome
+from cpgjax.episode.descriptors import legs
 from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.episode.mirror import MirrorError
-from cpgjax.episode.perturb import Perturbations, check_controller, commands, draw, noise_key, roughened
+from cpgjax.episode.perturb import (
+    Perturbations,
+    check_controller,
+    commands,
+    draw,
+    noise_key,
+    roughened,
+    touch_thresholds,
+)
 from cpgjax.episode.policy import Family, from_control, from_genomes, parse_controller, to_genome, widen
 from cpgjax.episode.policy import base_genome as policy_base
 from cpgjax.io.wl import load_model
@@ -188,10 +197,10 @@ def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) 
     return r
 
 
-def controllers(family: Family | None, model, g, key=None, steer=None):
+def controllers(family: Family | None, model, g, key=None, steer=None, touch=None):
     """The controllers of genomes ``g`` [N, G] (:func:`cpgjax.episode.policy.from_genomes`), computed apart from the
     simulation (the barrier: the same weights in every program, cf. :func:`robust_problem`)."""
-    c = from_genomes(family, model, g, key=key, steer=steer)
+    c = from_genomes(family, model, g, key=key, steer=steer, touch=touch)
     return c if family is None else jax.lax.optimization_barrier(c)
 
 
@@ -242,7 +251,8 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
         if p.command > 0:
             c = commands(k[: n * R], p.command)
             steer = steering.Schedule(c[0], c[1], switch, p.command)
-        r = evaluate(model, controllers(family, model, g, nk, steer), time=T, delta=delta, chunk=chunk, var=var,
+        at = touch_thresholds(k[: n * R], len(legs(model)[0]), p.touch) if p.touch > 0 else None
+        r = evaluate(model, controllers(family, model, g, nk, steer, at), time=T, delta=delta, chunk=chunk, var=var,
                      fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, **sensing)
         turn = None if steer is None else (switch * jnp.abs(c[0]) + (T - switch) * jnp.abs(c[1])) / T
         r = episode_scores(r, p, steered=steer is not None, turn=turn)

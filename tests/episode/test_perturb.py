@@ -67,7 +67,8 @@ def test_the_run_records_every_range_drawn_and_the_controller_family():
 @pytest.mark.parametrize("bad, message", [({"latency": 2}, "latency is 0 or 1"), ({"relief": 1.5}, "relief"),
                                           ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown"),
                                           ({"speed": 0.12}, "give command too"),
-                                          ({"bristle": 1.0, "bristle_from": 2.0}, "bristle_from")])
+                                          ({"bristle": 1.0, "bristle_from": 2.0}, "bristle_from"),
+                                          ({"touch": 0.02}, "touch .* <= 0.01"), ({"touch": -0.001}, "touch")])
 def test_bad_ranges_are_refused(bad, message):
     with pytest.raises(ValueError, match=message):
         Perturbations.from_settings(bad)
@@ -79,6 +80,27 @@ def test_commands_are_drawn_per_half_within_the_range_from_the_key_alone():
     assert c.shape == (2, 300) and np.abs(c).max() <= 0.3 and c.min() < -0.29 and c.max() > 0.29
     assert np.corrcoef(c[0], c[1])[0, 1] ** 2 < 0.05                         # the halves are drawn apart
     np.testing.assert_array_equal(np.asarray(commands(keys[:17], 0.3)), c[:, :17])   # a robot's, whatever the batch
+
+
+def test_touch_thresholds_are_drawn_per_leg_within_the_range_from_the_key_alone():
+    from cpgjax.episode.perturb import touch_thresholds
+
+    keys = jax.random.split(jax.random.key(3), 300)
+    t = np.asarray(touch_thresholds(keys, 4, 0.001))
+    assert t.shape == (300, 4) and np.abs(t).max() <= 0.001 and t.min() < -0.00099 and t.max() > 0.00099
+    np.testing.assert_array_equal(np.asarray(touch_thresholds(keys[:9], 4, 0.001)), t[:9])
+    assert "touch" not in Perturbations().to_dict()                             # off: the earlier records
+
+
+def test_the_touch_range_needs_a_controller_that_reads_contact():
+    from cpgjax.optim.factory import make_problem
+
+    p = make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller="pmtg:tilt+contact+bias",
+                     perturb={"touch": 0.001})
+    assert p.meta["perturbations"]["touch"] == 0.001
+    for ctl in (None, "pmtg:tilt+bias"):
+        with pytest.raises(ValueError, match="must read its touch sensors"):
+            make_problem("models/quadruped.wl", time=0.2, evaluation="robust", controller=ctl, perturb={"touch": 0.001})
 
 
 def test_a_steered_run_records_the_command_and_refuses_a_controller_that_cannot_read_it():

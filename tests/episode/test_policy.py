@@ -104,6 +104,24 @@ def test_latency_delays_the_action_by_exactly_one_step():
     np.testing.assert_allclose(tr["phase"][1:], np.cumsum(tr["frequency"][1:]) * m.dt, rtol=1e-5, atol=1e-9)
 
 
+def test_the_touch_sensors_read_from_each_controllers_own_threshold_in_the_episode():
+    """``ClosedLoop.touch`` reaches the sensors in the scan: the recorded contact readings of 4 robots, one
+    controller, thresholds of 10 cm above the ground (every foot down: the trot lifts its feet less), 1 cm in (none:
+    a foot carrying its share of the robot sinks 0.3 mm), 0 and none given (the same)."""
+    m = load_model(QUAD)
+    fam = pol.Family(inputs=("contact", "bias"))
+    g = np.concatenate([_trots(m, 1).reshape(1, -1), np.zeros((1, fam.n_weights(m)))], 1)
+    at = np.repeat(np.float32([[-0.1], [0.01], [0.0], [0.0]]), 4, 1)        # [robots, legs]
+    c = pol.from_genomes(fam, m, np.repeat(g, 4, 0).astype(np.float32), touch=at)
+    run = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, record=True)["traj"]["obs"])
+    obs = np.asarray(run(jax.tree.map(lambda a: np.moveaxis(a, 0, -1), c)))[:, :4]       # [S, legs, robots]
+    assert (obs[..., 0] == 1).all() and (obs[..., 1] == 0).all()
+    assert 0 < obs[..., 2].mean() < 1                                       # the trot lifts its feet in turn
+    none = c.replace(touch=None)
+    np.testing.assert_array_equal(np.asarray(run(jax.tree.map(lambda a: np.moveaxis(a, 0, -1), none)))[:, :4, 2],
+                                  obs[..., 2])
+
+
 def test_the_genome_is_the_cpg_then_the_policy_genes_scaled():
     m = load_model(QUAD)
     fam = pol.parse_controller("pmtg:tilt+contact+bias")

@@ -63,6 +63,19 @@ def test_a_lifted_robot_reads_no_foot_down(quad):
     np.testing.assert_array_equal(o["contact"], 0.0)
 
 
+def test_a_touch_sensor_reads_from_the_depth_it_is_given(quad):
+    """A robot lifted 1 mm: a sensor reading from 2 mm above the ground sees its foot down, one reading from the
+    ground (0, the contact law's test) or from 1 mm in does not; each leg has its own threshold."""
+    var = Variation.nominal(quad, 1)._replace(lift=jnp.asarray([0.001]))
+    s = _varied(quad, var)
+    at = jnp.asarray([[-0.002], [0.0], [0.001], [-0.0005]], jnp.float32)        # [legs, B]
+    read = jax.jit(lambda s, at: sensors.touch(quad, s, None, at))
+    np.testing.assert_array_equal(np.asarray(read(s, at))[:, 0], [1.0, 0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(np.asarray(read(s, jnp.zeros_like(at))), np.asarray(sensors.touch(quad, s)))
+    standing = initial_state(quad, 1)
+    np.testing.assert_array_equal(np.asarray(read(standing, at))[:, 0], [1.0, 1.0, 0.0, 1.0])
+
+
 def test_a_body_turned_by_known_angles_reads_them_as_roll_and_pitch(quad):
     """The robot turned about its body's x axis by a reads pitch a (nose up for a > 0), about y by b roll b; the
     pendulums are decoupled: a turn about one axis alone leaves the other reading 0.  Rates: the angular velocity
