@@ -11,8 +11,9 @@ is compiling, in how many programs, whether any program was compiled twice, and 
     .venv/bin/python benchmarks/compile_census.py runs/compile-census
 
 (One TSV per test process in the folder; subprocesses the tests start are not counted.)  The key is read from
-the line JAX logs at each lookup of its persistent cache (the logger of its compiler, ``jax._src.compiler``, the
-one JAX's documentation of the cache names for this).
+the line JAX logs at each lookup of its persistent cache (its debug logging of compiles, which the options
+``jax_log_compiles`` and ``jax_explain_cache_misses`` raise to warnings), on the logger named
+``jax._src.compiler``: a logger's name, nothing imported from JAX's internals.
 """
 
 from __future__ import annotations
