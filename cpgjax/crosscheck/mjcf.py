@@ -24,7 +24,7 @@ collided with the sphere on its own.  A sphere whose centre sinks below the top 
 out through that prism's vertical wall, sideways: a 2 mm foot got stuck in the ground (on 2 cm roughness 75 %
 of its contacts pointed more than 45 degrees from vertical, and the trot walked 0.36 m in 10 s where it walks
 1.3-1.4 m in our simulator); with a 1 cm sphere 0.6 % (1.48 m).  On a plane the lowered ground makes the
-sphere a point foot at the vertex (docs/crosscheck.md; ``docs/experiments/rough_contacts.py``).
+sphere a point foot at the vertex (docs/crosscheck.md, *Rough ground*).
 - looks: the objects' boxes/cylinders as visual geoms (no contact, no mass).
 """
 
@@ -75,7 +75,8 @@ def contact_solref(model) -> str:
     frequency and damping ratio it has on ours, ``sqrt(n A / m)`` and ``n B / (2 sqrt(n A m))``
     (``tests/crosscheck/test_mjcf.py``).  Writing ``-A -B`` directly, as before, made the quadruped's ground
     3.45x too stiff and too damped in MuJoCo.  At rest MuJoCo's depth is set by its regularisation, not by ``k``
-    alone: the standing quadruped's feet sink 4.1x deeper than eq. 3.7 says (``docs/experiments/mujoco_ground.py``).
+    alone: the standing quadruped's feet sink 4.1x deeper than eq. 3.7 says (docs/results/engine-agreement.md,
+    *MuJoCo's ground at rest*).
     """
     mc = contact_mass(model)
     return f"{-model.ground_A / mc:.6g} {-model.ground_B / mc:.6g}"
@@ -121,8 +122,8 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CON
     ``ground``: the form of a non-flat ground, ``hfield``, ``mesh`` or ``boxes`` (:mod:`cpgjax.crosscheck.ground`;
     None: ``hfield``, or the form of an enclosing ``ground.ground_form``).  ``contact_radius``: the foot spheres'
     radius (the ground lies that much lower); ``hfield_sub``: the heightfield's points per cell of ours
-    (:func:`hfield_grid`).  These two are for experiments
-    (``docs/experiments/rough_contacts.py``); the defaults are the export."""
+    (:func:`hfield_grid`).  These two are for experiments (docs/crosscheck.md, *Rough ground*); the defaults are
+    the export."""
     desc = model.description
     root = ET.Element("mujoco", model=desc.path.rsplit("/", 1)[-1] if desc else "cpgjax")
     ET.SubElement(root, "compiler", angle="radian", autolimits="true", inertiafromgeom="false")

@@ -52,7 +52,8 @@ def test_a_robot_at_rest_stands_on_its_four_feet_in_both_engines():
     """The quadruped holding its design pose on flat ground for 1 s.  Here each foot carries a quarter of the
     robot: depth m g / (4 A) (eq. 3.7; sim/contact.py makes it exact at rest), the normal vertical, no slip.  In
     MuJoCo C its spheres touch too, with a vertical normal and no slip; their depth is MuJoCo's (its
-    regularisation sinks them deeper: docs/experiments/mujoco_ground.py), only checked to be of the same order."""
+    regularisation sinks them deeper: docs/results/engine-agreement.md, MuJoCo's ground at rest), only checked to be
+    of the same order."""
     from cpgjax.io.wl import load_model
 
     model = load_model("models/quadruped.wl", pipeline="exact")

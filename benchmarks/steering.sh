@@ -8,14 +8,18 @@
 # walked by every controller in one batch (cpgjax follow --ctl).  115-386 s of wall time per evolution on 2 shared
 # cores (docs/results/steering.md).
 #
-#   sh docs/experiments/steering.sh [OUT] [SEEDS]        # default runs/steering, "300 301 302"
-#   REPLICAS=8 sh docs/experiments/steering.sh runs/steering-r8 "303 304 305"   # 8 episodes per controller
-#   COMMAND=0.5 sh docs/experiments/steering.sh runs/steering-c05 "306 307 308"  # commands U(-0.5, 0.5) in evolution
-#   SPEED=0.12 sh docs/experiments/steering.sh runs/steering-v012 "312 313 314"  # speed credited up to 0.12 m/s
-#   MIRROR=1 sh docs/experiments/steering.sh runs/steering-mirror "315 316 317"  # a mirror-symmetric genome
-#   MIRROR=1 SPEED=0.12 COMMAND=0.4 LIMIT=0.4 sh docs/experiments/steering.sh runs/steering-c04-l04 "336 337 338"
+#   sh benchmarks/steering.sh [OUT] [SEEDS]        # default runs/steering, "300 301 302"
+#   REPLICAS=8 sh benchmarks/steering.sh runs/steering-r8 "303 304 305"   # 8 episodes per controller
+#   COMMAND=0.5 sh benchmarks/steering.sh runs/steering-c05 "306 307 308"  # commands U(-0.5, 0.5) in evolution
+#   SPEED=0.12 sh benchmarks/steering.sh runs/steering-v012 "312 313 314"  # speed credited up to 0.12 m/s
+#   MIRROR=1 sh benchmarks/steering.sh runs/steering-mirror "315 316 317"  # a mirror-symmetric genome
+#   MIRROR=1 SPEED=0.12 COMMAND=0.4 LIMIT=0.4 sh benchmarks/steering.sh runs/steering-c04-l04 "336 337 338"
 #                                                   # the follower's limit (default 0.3) at the evolved command range
+#
+# A seed whose OUT/sS.ctl exists is not evolved again (the script resumes).  CPGJAX names the cpgjax executable
+# (default .venv/bin/cpgjax); the wall and user time of each evolution is printed by /usr/bin/time.
 set -e
+case "${1:-}" in -h|--help) sed -n '2,/^set -e/{/^set -e/d;s/^# \{0,1\}//;p;}' "$0"; exit 0 ;; esac
 OUT=${1:-runs/steering}
 SEEDS=${2:-300 301 302}
 CPGJAX=${CPGJAX:-.venv/bin/cpgjax}

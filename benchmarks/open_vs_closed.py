@@ -8,7 +8,7 @@ run's plain best is then replayed by `cpgjax transfer` (here and in MuJoCo C, on
 jittered) on flat ground and on 1, 2 and 4 cm of roughness (the same field in both engines).  Every command is
 a `cpgjax` command; a run or replay already on disk is kept (the script resumes).  Run:
 
-    .venv/bin/python docs/experiments/open_vs_closed.py [--seeds 200-209] [--out runs/open-vs-closed] [--isa AVX2]
+    .venv/bin/python benchmarks/open_vs_closed.py [--seeds 200-209] [--out runs/open-vs-closed] [--isa AVX2]
 
 It writes OUT/FAMILY-sSEED.h5, OUT/FAMILY-sSEED-TERRAIN/transfer.json, OUT/times.json (wall and CPU seconds of
 each evolution) and, with --table, the results page's table and figure from what is on disk.
@@ -58,6 +58,8 @@ def run(cmd: list[str]) -> tuple[float, float]:
 
 
 def evolve_and_replay(out: str, seed_list: list[int], terrains: list[str], families: list[str]) -> None:
+    """Every family's run on every seed and its replays on every terrain, each a ``cpgjax`` command (:func:`run`);
+    what is on disk is kept."""
     os.makedirs(out, exist_ok=True)
     times_path = os.path.join(out, "times.json")
     times = json.load(open(times_path)) if os.path.exists(times_path) else {}
@@ -195,7 +197,7 @@ def plot(out: str, path: str) -> None:
     fig.savefig(path, dpi=110)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="200-209")
     ap.add_argument("--out", default="runs/open-vs-closed")
@@ -204,7 +206,10 @@ def main() -> None:
     ap.add_argument("--isa", default=None, help="also set XLA_FLAGS=--xla_cpu_max_isa=ISA (another rounding)")
     ap.add_argument("--table", action="store_true", help="only tabulate (and plot) what is on disk")
     ap.add_argument("--figure", default=None, help="also draw speed against roughness into this file")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
+    unknown = sorted(set(a.families.split(",")) - set(FAMILIES))
+    if unknown:
+        ap.error(f"--families: unknown {', '.join(unknown)} (of {', '.join(FAMILIES)})")
     if a.isa:
         os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + f" --xla_cpu_max_isa={a.isa}").strip()
     if not a.table:
@@ -213,7 +218,8 @@ def main() -> None:
     if a.figure:
         plot(a.out, a.figure)
         print(f"wrote {a.figure}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,0 +1,74 @@
+"""A smoke run of ``benchmarks/steering_response.py`` (the tables of docs/results/steering.md): two steering
+controllers, each under the nine commands in one batch, and the table of turning rates.  The episode program is
+stood in for by a walk that turns at the commanded rate (the real one, a steered exact-joint program, compiles for
+about 13 s on 2 cores; `cpgjax follow --ctl` and tests/episode/test_steering.py run it): the batch it is given,
+the turning rates measured from the body's quaternions and the table are the script's own."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("steering_response", ROOT / "benchmarks" / "steering_response.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _steering_ctl(path) -> str:
+    """A closed loop on the trot's CPG that reads the command (its policy of zeros)."""
+    from cpgjax.episode import policy as pol
+    from cpgjax.io.ctl import PolicyTable, read_ctl, write_ctl
+    from cpgjax.io.wl import load_model
+
+    m = load_model("models/quadruped.wl")
+    fam = pol.parse_controller("pmtg:tilt+contact+command+steer+bias")
+    coeffs = read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs
+    c = pol.ClosedLoop(fam, coeffs, np.zeros((fam.n_out(m), fam.n_in(m)), np.float32), np.zeros((), np.float32))
+    write_ctl(path, coeffs, policy=PolicyTable(**pol.table_fields(c, m)), exact=True)
+    return str(path)
+
+
+def test_each_controller_under_each_command_and_its_table(bench, tmp_path, monkeypatch, capsys):
+    import cpgjax.episode.batch
+
+    ctls = [_steering_ctl(tmp_path / "a.ctl"), _steering_ctl(tmp_path / "b.ctl")]
+    n, T = len(bench.COMMANDS), 0.3
+    seen = {}
+
+    def walk(model, c, *, time, record):
+        """The tracked body turning at the commanded rate, as fast as the command is large; the last robot falls."""
+        seen.update(steer=c.steer, width=c.coeffs.shape[0], time=time, record=record)
+        t = np.linspace(0.0, time, 7)
+        psi = t[:, None] * np.asarray(c.steer.first)[None]                    # [samples, robots]
+        q = np.zeros((len(t), 4, len(model.body_names), 2 * n))
+        q[:, 0, model.track], q[:, 3, model.track] = np.cos(psi / 2), np.sin(psi / 2)
+        return {"traj": {"q": q}, "speed": np.abs(np.asarray(c.steer.first)),
+                "fallen": np.arange(2 * n) == 2 * n - 1}
+
+    monkeypatch.setattr(cpgjax.episode.batch, "simulate", walk)
+    assert bench.main([*ctls, "--time", str(T)]) == 0
+    cmd = np.tile(bench.COMMANDS, 2)
+    np.testing.assert_array_equal(seen["steer"].first, cmd)
+    np.testing.assert_array_equal(seen["steer"].second, cmd)
+    assert (seen["steer"].switch, seen["steer"].limit, seen["width"], seen["time"], seen["record"]) == (
+        T / 2, pytest.approx(0.4), 2 * n, T, True)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "| controller | -0.4 | -0.3 | -0.2 | -0.1 | +0.0 | +0.1 | +0.2 | +0.3 | +0.4 |"
+    assert len(lines) == 4 and lines[2].startswith(f"| {ctls[0]} | -0.40, 0.40 | -0.30, 0.30 | ")
+    assert lines[3].endswith(" | +0.30, 0.30 | +0.40, 0.40 (fell) |")
+
+
+def test_a_turn_past_half_a_circle_is_unwrapped(bench):
+    t = np.linspace(0.0, 10.0, 201)
+    psi = np.stack([1.0 * t, -0.7 * t], 1)                                   # 10 rad and -7 rad in 10 s
+    q = np.stack([np.cos(psi / 2), 0 * psi, 0 * psi, np.sin(psi / 2)])
+    np.testing.assert_allclose(bench.turning_rates(q, 10.0), [1.0, -0.7], atol=1e-9)
