@@ -32,14 +32,13 @@ import numpy as np
 from cpgjax.errors import ResultsError
 from cpgjax.experiments.evolve import (
     _cached_chunk_fn,
-    _check_machine,
-    _check_resume,
     _one,
     check_stop,
     deferred_sigint,
     metrics_spec,
     run_keys,
 )
+from cpgjax.experiments.resume import check_machine, check_resume
 from cpgjax.io import runlock
 from cpgjax.io.results import Row, RunWriter, create_run, read_attrs, read_run
 from cpgjax.optim import mapelites as me
@@ -100,7 +99,7 @@ def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callbac
     chunk_fn = _cached_chunk_fn(problem, algo, cfg.chunk, static)
     N = cfg.batch
     if resume and os.path.exists(path):
-        _check_resume(path, algo, problem)
+        check_resume(path, algo, problem)
         attrs = read_attrs(path)
         if attrs.get("grid") != _grid_json(grid):
             raise ResultsError(f"{path}: cannot resume: the grid {_grid_json(grid)} differs from the run's "
@@ -108,7 +107,7 @@ def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callbac
         run = read_run(path)
         completed = run.completed
         if completed < algo.generations:
-            _check_machine(path, completed, allow_other_machine)
+            check_machine(path, completed, allow_other_machine)
         if int(attrs["generations"]) != algo.generations:
             with RunWriter(path) as w:
                 w.set_attr("generations", algo.generations)

@@ -45,6 +45,9 @@ generation are: resize, write the rows, set ``completed``, flush.  The writer op
 only while it writes a chunk of generations and closes it between chunks, so a run killed
 while it computes leaves a closed, consistent file; a kill during a write loses at most the
 rows whose ``completed`` was not yet set.
+
+What a run records of its machine (``versions``, ``machines``): :mod:`cpgjax.io.machine`; a run read back
+(:class:`Run`): :mod:`cpgjax.io.run`.
 """
 
 from __future__ import annotations
@@ -53,8 +56,6 @@ import contextlib
 import datetime as _dt
 import json
 import os
-import platform
-import sys
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -66,75 +67,19 @@ import numpy as np
 from cpgjax._xla import ISAS, cpu_model, isa  # noqa: F401  (re-exported: the machine a run records)
 from cpgjax.errors import ResultsError
 from cpgjax.io import runlock
+from cpgjax.io.machine import (  # noqa: F401  (re-exported: the machine a run records)
+    MACHINE_KEYS,
+    describe_machine,
+    machine,
+    machine_differences,
+    run_machines,
+    versions,
+)
+from cpgjax.io.run import Run, nanreduce  # noqa: F401  (nanreduce re-exported)
 
 FORMAT = "cpgjax-run"
 FORMAT_VERSION = 1
 ROW_DATASETS = ("genomes", "fitness", "diverged", "n_diverged", "mutation_rate", "wall_time")
-
-
-def _version(dist: str) -> str:
-    from importlib import metadata
-
-    try:
-        return metadata.version(dist)
-    except metadata.PackageNotFoundError:
-        return "none"
-
-
-def versions() -> dict[str, str]:
-    """Versions of the packages and the machine that make a run reproducible (docs/reproducibility.md)."""
-    import jax
-    import jaxlib
-
-    import cpgjax
-
-    try:
-        device = str(jax.devices()[0].device_kind)
-    except Exception:  # pragma: no cover - no backend
-        device = "unknown"
-    return {"python": sys.version.split()[0], "cpgjax": cpgjax.__version__, "jax": jax.__version__,
-            "jaxlib": jaxlib.__version__, "mujoco": _version("mujoco"), "numpy": np.__version__,
-            "h5py": h5py.__version__, "platform": platform.platform(), "device": device, "cpu": cpu_model(),
-            "isa": isa(), "xla_flags": os.environ.get("XLA_FLAGS", "")}
-
-
-# what decides a run's numbers bit for bit (besides its settings): the machine's CPU and vector ISA, and the
-# versions of the code that compiles and runs the simulator (jax, jaxlib) and of cpgjax (and MuJoCo, for
-# what is replayed in it)
-MACHINE_KEYS = ("cpu", "isa", "cpgjax", "jax", "jaxlib", "mujoco")
-
-
-def machine(v: Mapping[str, Any] | None = None) -> dict[str, str]:
-    """The entries of :func:`versions` (default: this process's) that a run's numbers depend on."""
-    v = versions() if v is None else v
-    return {k: str(v[k]) for k in MACHINE_KEYS if k in v and v[k] not in (None, "")}
-
-
-def describe_machine(m: Mapping[str, Any]) -> str:
-    """``AMD EPYC (AVX512), cpgjax 0.1.0, jax 0.10.2, jaxlib 0.10.2, mujoco 3.3.7`` (what is known of it)."""
-    cpu = m.get("cpu", "unknown CPU") + (f" ({m['isa']})" if m.get("isa") else "")
-    return ", ".join([cpu] + [f"{k} {m[k]}" for k in ("cpgjax", "jax", "jaxlib", "mujoco") if m.get(k)])
-
-
-def run_machines(attrs: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """The machines that computed a run: ``[{"from_generation": 0, cpu, isa, ...}, ...]`` (files written before
-    the ``machines`` attribute: the one of ``versions``, with what it recorded)."""
-    with contextlib.suppress(ValueError, TypeError):
-        if attrs.get("machines"):
-            return list(json.loads(attrs["machines"]))
-    try:
-        v = json.loads(attrs.get("versions") or "{}")
-    except ValueError:
-        v = {}
-    return [{"from_generation": 0, **machine(v)}]
-
-
-def machine_differences(stored: Mapping[str, Any], here: Mapping[str, Any] | None = None) -> list[str]:
-    """``["isa AVX512 -> SSE4_2", ...]``: what differs between a recorded machine and this one (keys the record
-    lacks, as in files written before they were recorded, are not compared)."""
-    here = machine() if here is None else here
-    return [f"{k} {stored[k]} -> {here.get(k, 'unknown')}" for k in MACHINE_KEYS
-            if stored.get(k) not in (None, "") and str(stored[k]) != str(here.get(k, ""))]
 
 
 def _attr_value(v: Any) -> Any:
@@ -300,68 +245,6 @@ def _truncate(f: h5py.File, n: int) -> None:
     for ds in _datasets(f):
         if ds.shape[0] > n:
             ds.resize(n, axis=0)
-
-
-@dataclass
-class Run:
-    """A run file read back (rows truncated to ``completed``)."""
-
-    path: str
-    attrs: dict[str, Any]
-    config: dict[str, Any]
-    meta: dict[str, Any]
-    genomes: np.ndarray        # [G, N, n_genes]
-    fitness: np.ndarray        # [G, N], NaN kept
-    diverged: np.ndarray       # [G, N]
-    n_diverged: np.ndarray     # [G]
-    mutation_rate: np.ndarray  # [G]
-    wall_time: np.ndarray      # [G]
-    metrics: dict[str, np.ndarray]
-    state: dict[str, np.ndarray]
-    writer: dict | None = None  # the process writing the file as it was read (cpgjax.io.runlock.holder), or None
-
-    @property
-    def kind(self) -> str:
-        return str(self.attrs["kind"])
-
-    @property
-    def completed(self) -> int:
-        return int(self.attrs["completed"])
-
-    @property
-    def pipeline(self) -> str:
-        """The physics pipeline the run was scored on (``cpgjax.sim.model.PIPELINES``); runs made before it was
-        recorded ran on the thesis's, "springs"."""
-        return str(self.meta.get("pipeline") or "springs")
-
-    def valid_fitness(self) -> np.ndarray:
-        """Fitness with diverged / non-finite entries as NaN."""
-        return np.where(self.diverged | ~np.isfinite(self.fitness), np.nan, self.fitness)
-
-    def best_per_generation(self) -> np.ndarray:
-        return nanreduce(np.nanmax, self.valid_fitness())
-
-    def mean_per_generation(self) -> np.ndarray:
-        return nanreduce(np.nanmean, self.valid_fitness())
-
-    def best(self) -> tuple[int, int, float, np.ndarray]:
-        """(generation, index, fitness, genome) of the best valid individual of the whole run."""
-        if self.completed == 0 or self.fitness.shape[0] == 0:
-            raise ResultsError(f"{self.path}: no generations in the file")
-        v = self.valid_fitness()
-        if v.size == 0 or not np.any(np.isfinite(v)):
-            raise ResultsError(f"{self.path}: no valid (finite, not diverged) individual")
-        gen, idx = np.unravel_index(int(np.nanargmax(v)), v.shape)
-        return int(gen), int(idx), float(v[gen, idx]), self.genomes[gen, idx]
-
-
-def nanreduce(fn, v: np.ndarray) -> np.ndarray:
-    """``fn(v, axis=-1)`` (e.g. ``np.nanmax``) where a row has a finite entry, NaN where it has none (no warning)."""
-    ok = np.any(np.isfinite(v), axis=-1)
-    out = np.full(v.shape[:-1], np.nan)
-    if np.any(ok):
-        out[ok] = fn(v[ok], axis=-1)
-    return out
 
 
 def _decode(v: Any) -> Any:

@@ -137,7 +137,7 @@ def _times(x: float) -> str:
 
 
 def table_a1(rows: list[dict]) -> str:
-    """Table A.1 (markdown) from `cpgjax.experiments.bench.table_a1`'s rows."""
+    """Table A.1 (markdown) from `cpgjax.experiments.slowdown.table_a1`'s rows."""
     lines = ["| example | DOFs | simulated [s] | thesis slowdown (1999) | slowdown, 1 robot | "
              "speed-up vs 1999 | batch | slowdown per robot in the batch | batch gain |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]

@@ -42,7 +42,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.experiments.evolve import (
-    check_problem,
     check_stop,
     compile_ahead,
     deferred_sigint,
@@ -51,6 +50,7 @@ from cpgjax.experiments.evolve import (
     run_keys,
     stop_requested,
 )
+from cpgjax.experiments.resume import check_problem
 from cpgjax.experiments.sweep.plan import MANIFEST, RunSpec
 from cpgjax.io import runlock
 from cpgjax.io.results import Row, RunWriter
