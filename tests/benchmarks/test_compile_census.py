@@ -4,23 +4,17 @@ compiled twice."""
 
 from __future__ import annotations
 
-import importlib.util
 import logging
-from pathlib import Path
 
 import jax
 import numpy as np
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
+from benchcases import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def census():
-    spec = importlib.util.spec_from_file_location("compile_census", ROOT / "benchmarks" / "compile_census.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("compile_census")
 
 
 def _program():

@@ -7,23 +7,18 @@ files (tests/cli, tests/crosscheck/test_transfer.py)."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
 import pytest
+from benchcases import load_benchmark
 
 from cpgjax.cli import build_parser
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("open_vs_closed", ROOT / "benchmarks" / "open_vs_closed.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("open_vs_closed")
 
 
 def _replay(run: str, speed: float, fell_there: bool) -> dict:

@@ -6,21 +6,14 @@ the turning rates measured from the body's quaternions and the table are the scr
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
+from benchcases import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("steering_response", ROOT / "benchmarks" / "steering_response.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("steering_response")
 
 
 def _steering_ctl(path) -> str:
