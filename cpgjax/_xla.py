@@ -36,17 +36,10 @@ used first out) also turns on JAX's file lock, for sweeps whose processes share 
 ``JAX_COMPILATION_CACHE_DIR`` already set wins.  ``cpgjax bench`` turns it off for itself (its compile
 column is a cold compile).
 
-Fourth, options for the programs of one physics pipeline (:data:`PROGRAM_OPTIONS`, :func:`install_program_options`).
-Why: LLVM unrolls a loop of up to 16 trips fully (a copy of its body per trip); with ``-unroll-full-max-count=8``
-loops of 9 to 16 trips stay loops, and the exact pipeline at the thesis's population (16 robots per device) runs
-about 1.7 times as fast, with the same bits at every batch width
-(tests/test_xla.py compiles a program with and without it and compares).  The option is LLVM's, and set for a
-whole process by ``--xla_backend_extra_options`` it changes the springs pipeline's bits; set per program it
-touches nothing else.  JAX's ``compiler_options`` cannot set a map-valued option, so the program's compile options
-get it added here (:func:`with_backend_options`), for the programs that run the exact pipeline's step alone
-(`sim.pipeline.step` traces a step in a :func:`program` scope named for its pipeline; a program that also runs
-the springs pipeline gets nothing).
-``cpgjax bench --tricks --pipeline exact`` measures it (the rows "batch 20" and "batch 20, no unroll cap").
+Fourth: nothing patches JAX.  An LLVM option that kept loops of 9 to 16 trips from being unrolled made the exact
+pipeline at 16 robots per device about 1.5 times as fast with the same bits, but JAX's public ``compiler_options``
+cannot set the map-valued ``xla_backend_extra_options`` it needs, and set for the whole process (``XLA_FLAGS``) it
+changes the springs pipeline's bits; it is left out (docs/results/performance-exact.md, "The unroll cap").
 
 Fifth, XLA's thread pools sized to the host devices (``PJRT_NPROC``, :func:`thread_pools`).  Why: XLA's CPU client
 gives each process two pools of one thread per core it may run on (at least one per host device): one runs the
@@ -177,78 +170,6 @@ def cold_compiles() -> None:
 
 
 # --- Fourth: options for the programs of one physics pipeline (jaxlib 0.10.x: field numbers and JAX internals) ---
-
-PROGRAM_OPTIONS = {"exact": {"-unroll-full-max-count": "8"}}
-PROGRAM_MARK = "cpgjax_pipeline_"
-program_options_on = True     # False: every program compiled with the process's options alone (bench --tricks)
-
-
-def program(name: str):
-    """A context in which what is traced is named for pipeline ``name`` (a `jax.named_scope`: the names are the
-    ops' locations, which the compiled computation does not depend on).  :func:`marks` reads them."""
-    import jax
-
-    return jax.named_scope(PROGRAM_MARK + name)
-
-
-def marks(module) -> set[str]:
-    """The pipelines whose :func:`program` scopes an MLIR module's ops were traced in."""
-    import io
-
-    f = io.BytesIO()                    # the bytecode: its string table holds each location's name once (~10 ms)
-    module.operation.write_bytecode(f)
-    return {m.decode() for m in re.findall(PROGRAM_MARK.encode() + rb"([a-z]+)", f.getvalue())}
-
-
-def program_options(module) -> dict[str, str]:
-    """The options a module's compile gets: a pipeline's :data:`PROGRAM_OPTIONS` when it runs that pipeline alone."""
-    if not (program_options_on and PROGRAM_OPTIONS):
-        return {}                       # nothing to give: the module is not read
-    m = marks(module)
-    return dict(PROGRAM_OPTIONS.get(next(iter(m)), {})) if len(m) == 1 else {}
-
-
-def _field(number: int, payload: bytes) -> bytes:
-    """A length-delimited protobuf field (wire type 2)."""
-    def varint(n):
-        out = bytearray()
-        while True:
-            out.append((n & 0x7F) | (0x80 if n > 0x7F else 0))
-            n >>= 7
-            if not n:
-                return bytes(out)
-    return varint(number << 3 | 2) + varint(len(payload)) + payload
-
-
-def with_backend_options(compile_options, options: dict[str, str]):
-    """``compile_options`` (an ``xla_client.CompileOptions``) with ``options`` added to its
-    ``DebugOptions.xla_backend_extra_options``: CompileOptionsProto.executable_build_options (field 3) >
-    ExecutableBuildOptionsProto.debug_options (3) > DebugOptions.xla_backend_extra_options (500, a map of string
-    to string), appended to the serialized message (protobuf merges a message field given twice)."""
-    from jax._src.lib import xla_client as xc
-
-    entries = b"".join(_field(500, _field(1, k.encode()) + _field(2, v.encode())) for k, v in options.items())
-    return xc.CompileOptions.ParseFromString(compile_options.SerializeAsString() + _field(3, _field(3, entries)))
-
-
-def install_program_options() -> None:
-    """Give each program its :func:`program_options` when JAX compiles it for the CPU (once per process).  The
-    persistent cache's key covers the compile options, so a program compiled with them is kept apart."""
-    from jax._src import compiler
-
-    if getattr(compiler.compile_or_get_cached, "cpgjax", False):
-        return
-    original = compiler.compile_or_get_cached
-
-    def compile_or_get_cached(backend, computation, devices, compile_options, *args, **kw):
-        options = program_options(computation) if getattr(backend, "platform", "") == "cpu" else {}
-        if options:
-            compile_options = with_backend_options(compile_options, options)
-        return original(backend, computation, devices, compile_options, *args, **kw)
-
-    compile_or_get_cached.cpgjax = True
-    compiler.compile_or_get_cached = compile_or_get_cached
-
 
 def compile_cache_dir(environ=None) -> str | None:
     """The persistent compilation cache's folder for this CPU, made if missing; None when turned off

@@ -68,80 +68,12 @@ def test_a_second_run_loads_the_program_the_first_compiled_with_the_same_bits(tm
 # --- per-program compile options (cpgjax/_xla.py, fourth part) ---
 
 @functools.cache
-def _lowered(*pipelines):
-    """A program stepping the quadruped once on each of ``pipelines`` (lowered, not compiled)."""
-    import jax
-    import jax.numpy as jnp
+def test_the_package_reaches_into_no_jax_internals():
+    """JAX only through its public API: no module of the package imports ``jax._src``."""
+    from pathlib import Path
 
-    from cpgjax.io.wl import load_model
-    from cpgjax.sim import initial_state, step
-
-    models = [load_model("models/quadruped.wl", pipeline=p) for p in pipelines]
-
-    def f(t):
-        ctrl = (jnp.full((models[0].n_ctrl, 16), t), jnp.zeros((models[0].n_ctrl, 16)))
-        return [step(m, initial_state(m, 16), ctrl).x for m in models]
-
-    return jax.jit(f).lower(0.1).compiler_ir()
-
-
-def test_a_program_of_one_pipeline_gets_that_pipelines_options_and_no_other_does():
-    import jax
-
-    assert _xla.marks(_lowered("exact")) == {"exact"}
-    assert _xla.program_options(_lowered("exact")) == _xla.PROGRAM_OPTIONS["exact"] != {}
-    assert _xla.program_options(_lowered("springs")) == _xla.PROGRAM_OPTIONS.get("springs", {})
-    assert _xla.program_options(_lowered("exact", "springs")) == {}        # both pipelines: neither's options
-    assert _xla.program_options(jax.jit(lambda x: x * 2).lower(1.0).compiler_ir()) == {}
-
-
-def test_the_options_are_added_to_the_compile_options_and_nothing_else_changes():
-    from jax._src.lib import xla_client as xc
-
-    co = xc.CompileOptions()
-    co.num_replicas, co.num_partitions = 1, 2
-    before = co.SerializeAsString()
-    after = _xla.with_backend_options(co, {"-unroll-full-max-count": "8", "xla_cpu_flag": "true"})
-    again = xc.CompileOptions.ParseFromString(after.SerializeAsString())
-    assert after.num_partitions == 2 and again.SerializeAsString() == after.SerializeAsString()
-    raw = after.SerializeAsString()
-    assert b"-unroll-full-max-count" in raw and b"xla_cpu_flag" in raw and len(raw) > len(before)
-    # the same options once more: the map keeps one entry per key
-    twice = _xla.with_backend_options(after, {"-unroll-full-max-count": "8"}).SerializeAsString()
-    assert len(twice) == len(raw)
-
-
-@pytest.mark.slow
-def test_the_exact_pipelines_options_change_no_value(monkeypatch):
-    """The exact pipeline's program at the thesis's population, compiled with and without its options (which reach
-    XLA: the compile options it is given carry them): the same bits."""
-    from functools import partial
-
-    import jax
-    import numpy as np
-    from jax._src import compiler
-
-    from cpgjax.episode.batch import evaluate
-    from cpgjax.experiments.bench import _controllers
-    from cpgjax.io.wl import load_model
-
-    seen = []
-    resolve = compiler._resolve_compilation_strategy
-
-    def spy(computation, devices, compile_options, *args):
-        seen.append(b"-unroll-full-max-count" in compile_options.SerializeAsString())
-        return resolve(computation, devices, compile_options, *args)
-
-    monkeypatch.setattr(compiler, "_resolve_compilation_strategy", spy)
-    model = load_model("models/quadruped.wl", pipeline="exact")
-    c = np.asarray(_controllers(model, 20), np.float32)
-    outs = []
-    for on in (True, False):
-        monkeypatch.setattr(_xla, "program_options_on", on)
-        outs.append(jax.tree.map(np.asarray, jax.jit(partial(evaluate, model, time=0.2))(c)))
-    assert seen == [True, False]
-    for a, b in zip(jax.tree.leaves(outs[0]), jax.tree.leaves(outs[1]), strict=True):
-        np.testing.assert_array_equal(a, b)
+    root = Path(__file__).resolve().parents[1] / "cpgjax"
+    assert not [str(f) for f in root.rglob("*.py") if "jax._src" in f.read_text()]
 
 
 # --- XLA's thread pools sized to the host devices (cpgjax/_xla.py, fifth part) ---

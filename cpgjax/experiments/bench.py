@@ -6,8 +6,7 @@ of the program, timed alone (not "first call minus a steady call", which is no c
 came out negative for MJX under load); the run is the best of the calls of that compiled program.
 ``--tricks`` also measures what each speed trick buys, side by side in one run: all
 host devices vs one, the polynomial atan2 vs the library one, the chunk size, and on exact joints
-the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion, and at the thesis's population
-(batch 20) the pipeline's own compile options (`cpgjax._xla.PROGRAM_OPTIONS`) vs none.
+the stages computed once into memory (`sim.tricks.keep`) vs left to XLA's fusion, and XLA's thread pools.
 Table A.1 (``--table-a1``): :mod:`cpgjax.experiments.slowdown`.
 """
 
@@ -195,7 +194,6 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
     (None: the model file's, else springs)."""
     import jax
 
-    from cpgjax import _xla
     from cpgjax.io.wl import load_model
     from cpgjax.sim import rotation
 
@@ -238,14 +236,6 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
         if model.exact is not None:         # the exact pipeline's stages computed once into memory, or not
             plain = model.replace(exact=dataclasses.replace(model.exact, materialize=False))
             trows.append(row(plain, b, time_s, chunk=chunk, label="no materialized stages"))
-        if _xla.PROGRAM_OPTIONS.get(model.pipeline):      # the pipeline's compile options, where they act
-            trows.append(row(model, 20, time_s, chunk=chunk, label="batch 20", repeats=AGAINST_REPEATS))
-            _xla.program_options_on = False
-            try:
-                trows.append(row(model, 20, time_s, chunk=chunk, label="batch 20, no unroll cap",
-                                 repeats=AGAINST_REPEATS))
-            finally:
-                _xla.program_options_on = True
         cores = os.cpu_count() or 1
         if cores > 1:       # XLA's thread pools, sized once per process (cpgjax/_xla.py: thread_pools)
             for threads in (1, cores):

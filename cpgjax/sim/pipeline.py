@@ -9,19 +9,12 @@ on the pipeline.
 
 from __future__ import annotations
 
-from cpgjax import _xla
 from cpgjax.sim.exact import step as exact_step
 from cpgjax.sim.springs import step as springs_step
-
-_xla.install_program_options()
 
 
 def step(model, state, ctrl, var=None):
     """Advance a batch of robots by ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)`` [nctrl, B] each;
-    ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (None: the nominal robot).
-
-    The step's ops are traced in a scope named for its pipeline (`cpgjax._xla.program`: their locations, not their
-    values), so that a program running it is compiled with that pipeline's options (`cpgjax._xla.PROGRAM_OPTIONS`)."""
-    name, fn = ("exact", exact_step.step) if model.exact is not None else ("springs", springs_step.step)
-    with _xla.program(name):
-        return fn(model, state, ctrl, var)
+    ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (None: the nominal robot)."""
+    fn = exact_step.step if model.exact is not None else springs_step.step
+    return fn(model, state, ctrl, var)
