@@ -205,7 +205,7 @@ def interrupted(args: argparse.Namespace, out: str) -> KeyboardInterrupt:
 
 
 def _run_command(args: argparse.Namespace, kind: str) -> int:
-    from cpgjax.experiments.evolve import deferred_sigint
+    from cpgjax.experiments.runner import deferred_sigint
 
     with deferred_sigint():
         out = args.out

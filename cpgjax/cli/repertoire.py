@@ -232,7 +232,7 @@ def _stored(path: str | None, resume: bool) -> tuple[dict, dict]:
 
 def cmd_repertoire(args: argparse.Namespace) -> int:
     from cpgjax.cli.evolve import interrupted
-    from cpgjax.experiments.evolve import deferred_sigint
+    from cpgjax.experiments.runner import deferred_sigint
 
     with deferred_sigint():
         from cpgjax.experiments.repertoire import run_repertoire

@@ -217,7 +217,7 @@ def build_specs(args: argparse.Namespace) -> tuple[list, dict[str, Any]]:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from cpgjax.experiments import sweep
-    from cpgjax.experiments.evolve import deferred_sigint
+    from cpgjax.experiments.runner import deferred_sigint
 
     with deferred_sigint():
         if args.workers is not None and args.ray is None:

@@ -3,7 +3,8 @@
 The run is MAP-Elites (:mod:`cpgjax.optim.mapelites`) on the optimisers' contract: one generation is
 :func:`cpgjax.optim.algorithm.generation_step` (``batch`` children in one batched simulation, with the
 behaviour descriptors accumulated in the rollout, :mod:`cpgjax.episode.descriptors`), ``chunk``
-generations one jitted ``lax.scan``, with the keys of :func:`cpgjax.experiments.evolve.run_keys`.
+generations one jitted ``lax.scan``, with the keys, Ctrl-C handling, run-file lock and compiled chunk of
+:mod:`cpgjax.experiments.runner`.
 
 The file is a ``cpgjax-run`` (:mod:`cpgjax.io.results`) of kind ``map-elites`` or ``iso-line``: every
 generation's children (genomes, fitness, diverged, the metrics, among them every descriptor dimension),
@@ -26,20 +27,20 @@ from dataclasses import dataclass
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.errors import ResultsError
-from cpgjax.experiments.evolve import (
-    _cached_chunk_fn,
-    _one,
+from cpgjax.experiments.runner import (
+    cached_chunk_fn,
+    check_machine,
+    check_resume,
     check_stop,
-    deferred_sigint,
     metrics_spec,
+    one_run,
+    run_guard,
     run_keys,
+    single_run_call,
 )
-from cpgjax.experiments.resume import check_machine, check_resume
-from cpgjax.io import runlock
 from cpgjax.io.results import Row, RunWriter, create_run, read_attrs, read_run
 from cpgjax.optim import mapelites as me
 from cpgjax.optim.problem import Problem
@@ -83,7 +84,7 @@ def run_repertoire(problem: Problem, cfg: me.MEConfig, out: str | os.PathLike[st
     replace it; ``stop_after``: stop after that many generations in this call.  Holds the run-file lock.
     """
     path = os.fspath(out)
-    with deferred_sigint(), runlock.hold(path):
+    with run_guard(path):
         return _run(problem, cfg, path, resume=resume, overwrite=overwrite, progress=progress,
                     stop_after=stop_after, callback=callback, allow_other_machine=allow_other_machine)
 
@@ -96,7 +97,7 @@ def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callbac
     k_init, k_prop, k_upd = run_keys(cfg.seed)
     static = (("grid", _grid_json(grid)),) + tuple(sorted((k, json.dumps(v)) for k, v in cfg.to_dict().items()
                                                           if k not in ("seed", "chunk", "evaluations")))
-    chunk_fn = _cached_chunk_fn(problem, algo, cfg.chunk, static)
+    chunk_fn = cached_chunk_fn(problem, algo, cfg.chunk, static)
     N = cfg.batch
     if resume and os.path.exists(path):
         check_resume(path, algo, problem)
@@ -130,11 +131,8 @@ def _run(problem, cfg, path, *, resume, overwrite, progress, stop_after, callbac
         state = jax.jit(algo.init)((), k_init)
 
     target = algo.generations if stop_after is None else min(algo.generations, completed + int(stop_after))
-    state1 = [_one(state)]
-
-    def call(state1, gen0, tgt):
-        return chunk_fn([()], state1, [k_prop[None]], [k_upd[None]], [jnp.full((1,), gen0, jnp.int32)],
-                        [jnp.full((1,), tgt, jnp.int32)])
+    state1 = [one_run(state)]
+    call = single_run_call(chunk_fn, (), k_prop, k_upd)           # MAP-Elites has no traced settings
 
     t0 = time.perf_counter()
     check_stop()

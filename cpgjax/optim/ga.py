@@ -43,8 +43,8 @@ No elitism: the thesis has none; pocketing is its way to keep the best.
 :class:`GeneticAlgorithm` (made by :meth:`GAConfig.algorithm`) is the GA on the optimisers' contract
 (:class:`cpgjax.optim.algorithm.Algorithm`): ``ask`` gives the population, ``tell`` is :func:`reproduce`.
 
-All randomness comes from explicit ``jax.random`` keys: the driver
-(:mod:`cpgjax.experiments.evolve`) uses ``fold_in(run_key, GEN)`` for generation GEN, so a run is
+All randomness comes from explicit ``jax.random`` keys: the drivers take a run's keys from its seed
+(:func:`cpgjax.experiments.runner.run_keys`) and use ``fold_in(run_key, GEN)`` for generation GEN, so a run is
 reproducible bit for bit from its seed and independent of how generations are chunked.
 
 Choices the thesis leaves open (documented in ``docs/evolution.md``): the mutation step

@@ -17,7 +17,7 @@ import pytest
 from runcases import one_line_error
 
 from cpgjax.cli import main
-from cpgjax.experiments.evolve import open_run, run_keys
+from cpgjax.experiments.runner import open_run, run_keys
 from cpgjax.optim.algorithm import make_algorithm
 from cpgjax.optim.factory import make_problem
 from cpgjax.optim.ga import GAConfig

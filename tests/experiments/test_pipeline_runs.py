@@ -11,7 +11,7 @@ from runcases import TINY_GA, TINY_TIME
 
 from cpgjax.cli import main
 from cpgjax.errors import ResultsError
-from cpgjax.experiments.evolve import check_problem
+from cpgjax.experiments.runner import check_problem
 from cpgjax.io.results import read_attrs, read_run
 from cpgjax.optim.factory import make_problem
 

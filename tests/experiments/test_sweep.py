@@ -314,7 +314,7 @@ def test_bad_arguments_are_named(tmp_path, capsys):
 
 def test_resume_with_another_episode_length_is_refused(tmp_path):
     """A sweep's runs are resumed through open_run: a different --time is refused before anything is computed."""
-    from cpgjax.experiments.evolve import open_run, run_keys
+    from cpgjax.experiments.runner import open_run, run_keys
     from cpgjax.optim.algorithm import make_algorithm
 
     out = str(tmp_path / "s")

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from cpgjax.errors import ResultsError
-from cpgjax.experiments.evolve import run_ga, run_keys
+from cpgjax.experiments.evolve import run_ga
+from cpgjax.experiments.runner import run_keys
 from cpgjax.optim.algorithm import Algorithm, make_algorithm, make_chunk_fn, stack_params
 from cpgjax.optim.analytic import analytic_problem
 from cpgjax.optim.ga import GAConfig

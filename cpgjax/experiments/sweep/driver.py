@@ -14,7 +14,7 @@ of the sweep is one jitted function: for every group ``vmap(ask)`` over its runs
 cores, with ``shard_map``), split back, and ``vmap(tell)`` per group.  ``chunk``
 generations run in one ``lax.scan``; the host writes chunk k while chunk k+1 computes.
 
-**Same numbers as single runs.**  A run uses the keys of :func:`cpgjax.experiments.evolve.run_ga` for
+**Same numbers as single runs.**  A run uses the keys of :func:`cpgjax.experiments.runner.run_keys` for
 its seed (``k_init, k_propose, k_update = split(key(seed), 3)``, ``fold_in(k, GEN)``), its
 initial state is made by the same jitted ``init``, and the simulator's result for a robot
 does not depend on the batch it is in, so a run of a sweep holds bit for bit the rows of
@@ -41,7 +41,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.experiments.evolve import (
+from cpgjax.experiments.runner import (
+    check_problem,
     check_stop,
     compile_ahead,
     deferred_sigint,
@@ -50,7 +51,6 @@ from cpgjax.experiments.evolve import (
     run_keys,
     stop_requested,
 )
-from cpgjax.experiments.resume import check_problem
 from cpgjax.experiments.sweep.plan import MANIFEST, RunSpec
 from cpgjax.io import runlock
 from cpgjax.io.results import Row, RunWriter
@@ -123,7 +123,7 @@ def run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int = 1, ove
     be scored as those already in their sweep folder are (:func:`check_sweep_problem`).  A Ctrl-C stops after
     the chunk in flight, once every computed generation is written (``KeyboardInterrupt``).
     ``allow_other_machine``: continue runs computed on another machine or with other versions (else refused,
-    :func:`cpgjax.experiments.evolve.open_run`).  Every run file is locked while it is written
+    :func:`cpgjax.experiments.runner.open_run`).  Every run file is locked while it is written
     (:mod:`cpgjax.io.runlock`): another process writing one of them is refused at once.
     """
     locks: dict[str, int] = {}          # run file -> its lock (cpgjax.io.runlock), held while the run is written
