@@ -29,9 +29,9 @@ def foot_contacts(model, mj, qpos: np.ndarray, every: int):
     export lowers our surface h by the radius r, so the depth is h - r - (z - r) = h - z, z the sphere's centre."""
     import mujoco
 
-    from cpgjax.crosscheck.engines import _foot_geoms
+    from cpgjax.crosscheck.engines import foot_geoms
 
-    foot = _foot_geoms(model, mj) >= 0
+    foot = foot_geoms(model, mj) >= 0
     gids = np.nonzero(foot)[0]
     d = mujoco.MjData(mj)
     pos, nz = [], []

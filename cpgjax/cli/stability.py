@@ -77,14 +77,14 @@ def _pick_header(name: str, p: dict, pipeline: str | None):
     """The `.ctl` header of the population study's ``name`` pick ``p`` (its run's settings; the study's pipeline
     added when it is another)."""
     from cpgjax.episode.policy import family_from_meta
-    from cpgjax.experiments.stability import _model_of
+    from cpgjax.experiments.stability import model_of
     from cpgjax.io.ctl import run_header
     from cpgjax.io.results import read_run
 
     run = read_run(p["run"])
     family = family_from_meta(run.meta)
     how = "highest" if name == "stable" else "lowest"
-    header = run_header(p["run"], run.meta, _model_of(run)[0], family.spec if family else "cpg",
+    header = run_header(p["run"], run.meta, model_of(run)[0], family.spec if family else "cpg",
                         f"the {name} one of a population study (cpgjax stability): among the walkers, the {how} mean "
                         f"S on flat ground ({p['S_flat']:.4g}); GA fitness {p['ga_fitness']:.4g}")
     if pipeline and pipeline not in header.pipelines:

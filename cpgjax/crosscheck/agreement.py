@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import _foot_geoms, _root_slice, mujoco_closed_run, spearman
+from cpgjax.crosscheck.engines import foot_geoms, mujoco_closed_run, root_slice, spearman
 from cpgjax.crosscheck.mjcf import load
 from cpgjax.episode.descriptors import legs
 from cpgjax.episode.rollout import FALL_TILT
@@ -130,11 +130,11 @@ def watch_ours(model, controller, time: float, sample: float = SAMPLE) -> tuple[
 def watch_mujoco(model, controller, time: float, timestep: float, sample: float = SAMPLE):
     """MuJoCo C's metrics and one :class:`Watch` per closed-loop controller, sampled every ``sample`` s."""
     mj = load(model, timestep=timestep)
-    leg_of = _foot_geoms(model, mj)
+    leg_of = foot_geoms(model, mj)
     L = int(leg_of.max()) + 1
     geoms = [int(np.nonzero(leg_of == j)[0][0]) for j in range(L)]
     every = max(1, int(round(sample / mj.opt.timestep)))
-    root = _root_slice(model, mj)
+    root = root_slice(model, mj)
     rows: list[list] = []
 
     def watch(step, datas):
@@ -183,7 +183,7 @@ def compare_runs(paths, *, terrain: str, mujoco_dt: float, per_run: int = 6, pip
                  progress=None) -> list[Gait]:
     """Every run's gaits (:func:`pick_gaits`) replayed here and in MuJoCo C on ``terrain``, with the feet watched.
     ``ours``: fields of our side's Model replaced (``{"friction_k": 1e5}``); MuJoCo's export does not read them."""
-    from cpgjax.crosscheck.transfer import _model, run_setting
+    from cpgjax.crosscheck.transfer import cached_model, run_setting
     from cpgjax.episode.policy import family_from_meta, from_genomes
     from cpgjax.io.results import read_run
     from cpgjax.io.sweepdir import run_files
@@ -196,7 +196,7 @@ def compare_runs(paths, *, terrain: str, mujoco_dt: float, per_run: int = 6, pip
         text = str(run.meta.get("model_text", ""))
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
-        model = _model(text, str(run.meta.get("model_path", path)), terrain, None, None, pipeline or run.pipeline)
+        model = cached_model(text, str(run.meta.get("model_path", path)), terrain, None, None, pipeline or run.pipeline)
         T = float(time or T or model.time_max)
         picked = pick_gaits(run, per_run)
         family = family_from_meta(run.meta)

@@ -35,7 +35,9 @@ def controls(model, coeffs, nstep: int, dt: float) -> np.ndarray:
     return q + ratio[None, None, :] * dq
 
 
-def _root_slice(model, mj):
+def root_slice(model, mj):
+    """Where the tracked body's free joint sits in MuJoCo's ``qpos``: its 7 entries (position, quaternion) as a
+    slice; a tracked body that is not a free root body is a ``ValueError``."""
     import mujoco
 
     bid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_BODY, model.body_names[model.track])
@@ -50,7 +52,7 @@ def metrics_from_qpos(model, mj, qpos: np.ndarray, dt: float, delta: float = DEF
     """Fitness, distance, speed, tilt, fallen from qpos trajectories [N, S, nq] sampled every dt."""
     from cpgjax.episode.fitness import stability
 
-    root = qpos[..., _root_slice(model, mj)]
+    root = qpos[..., root_slice(model, mj)]
     pos, quat = root[..., :3], root[..., 3:]
     R = quat_to_mat_np(np.moveaxis(quat, -1, 0))  # [3, 3, N, S]
     cm = pos + np.einsum("ijns,j->nsi", R, model.cm_local[:, model.track])
@@ -254,7 +256,7 @@ def mujoco_track(model, freq, amp, *, center=None, time: float, settle: float, c
     return out
 
 
-def _foot_geoms(model, mj) -> np.ndarray:
+def foot_geoms(model, mj) -> np.ndarray:
     """[ngeom] the leg (``episode.descriptors.legs`` order) of each exported contact sphere of a foot, else -1."""
     import mujoco
 
@@ -284,8 +286,8 @@ def mujoco_observe(model, mj, datas, groups, phase, command, leg_of=None) -> np.
     """
     from cpgjax.episode import sensors
 
-    leg_of = _foot_geoms(model, mj) if leg_of is None else leg_of
-    root = _root_slice(model, mj)
+    leg_of = foot_geoms(model, mj) if leg_of is None else leg_of
+    root = root_slice(model, mj)
     parts = {g: [] for g in groups}
     n_legs = int(leg_of.max()) + 1 if (leg_of >= 0).any() else 0
     adr = [mj.jnt_qposadr[_joint_id(mj, model.joint_names[j])] for j in model.ctrl_joint]
@@ -372,7 +374,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     cj = model.ctrl_joint
     ratio = np.where(model.j_kp[cj] > 0, model.j_kd[cj] / np.maximum(model.j_kp[cj], 1e-12), 0.0)
     lim = pol.LIMITS
-    leg_of = _foot_geoms(model, mj)
+    leg_of = foot_geoms(model, mj)
     datas = [mujoco.MjData(mj) for _ in range(N)]
     q0 = initial_qpos(model, mj)
     for d in datas:

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import _root_slice, mujoco_closed_run
+from cpgjax.crosscheck.engines import mujoco_closed_run, root_slice
 from cpgjax.crosscheck.mjcf import initial_qpos, load
 from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.episode.steering import GAIN, REACH
@@ -55,7 +55,7 @@ def pose(model, mj, qpos) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(psi, xy, up)`` of MuJoCo states ``qpos`` [..., nq]: the tracked body's heading [...] (rad, counter-clockwise
     from world +y, as `cpgjax.episode.descriptors.heading`), its CM in the ground plane [..., 2] and the cosine of
     its tilt [...]."""
-    root = np.asarray(qpos, float)[..., _root_slice(model, mj)]
+    root = np.asarray(qpos, float)[..., root_slice(model, mj)]
     R = quat_to_mat_np(np.moveaxis(root[..., 3:], -1, 0))                      # [3, 3, ...]
     cm = root[..., :3] + np.einsum("ij...,j->...i", R, model.cm_local[:, model.track])
     return np.arctan2(-R[0, 1], R[1, 1]), cm[..., :2], R[2, 2]

@@ -178,7 +178,7 @@ def variant(model, dt: float | None = None, joint_spring=None):
 
 
 @functools.lru_cache(maxsize=8)
-def _model(text: str, path: str, terrain, dt=None, joint_spring=None, pipeline: str = "springs"):
+def cached_model(text: str, path: str, terrain, dt=None, joint_spring=None, pipeline: str = "springs"):
     """One Model object per model text: the simulator's compiled programs are cached per Model object, so the
     runs of a sweep (one model) share one compilation instead of compiling one each."""
     return variant(build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline), dt, joint_spring)
@@ -223,7 +223,7 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         text = str(run.meta.get("model_text", ""))
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
-        model = _model(text, str(run.meta.get("model_path", path)), terrain or evolved_on, dt, joint_spring,
+        model = cached_model(text, str(run.meta.get("model_path", path)), terrain or evolved_on, dt, joint_spring,
                        pipeline or run.pipeline)
         T = float(time or model.time_max)
         # the controller and its jittered copies: a CPG's, or a closed loop

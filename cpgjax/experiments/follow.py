@@ -291,20 +291,20 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
            "mean_error": float(err.mean()), "max_error": float(err.max()), "gaits": log, "lookahead": lookahead,
            "trajectory": traj.tolist(), "waypoint_xy": pts.tolist(), "repertoire": repertoire}
     if video:
-        _render(model, X, Q, sub * model.dt, video, f"follow {path}")
+        render_walk(model, X, Q, sub * model.dt, video, f"follow {path}")
     return out
 
 
-def _render(model, X, Q, dt_sample: float, out: str, title: str, fps: float = 5.0, size: int = 300) -> None:
+def render_walk(model, X, Q, dt_sample: float, out: str, title: str, fps: float = 5.0, size: int = 300) -> None:
     """The walk's samples drawn from a fixed camera, about ``fps`` frames per simulated second."""
     from cpgjax.render.movie import episode_frames, open_painter
-    from cpgjax.render.poses import Poses, _frames_from_cm
+    from cpgjax.render.poses import Poses, frames_from_cm
     from cpgjax.render.video import VideoWriter, check_output
 
     check_output(out)
     stride = max(1, int(round(1.0 / (fps * dt_sample))))
     X, Q = X[::stride], Q[::stride]
-    pos, quat = _frames_from_cm(model, X.astype(float), Q.astype(float))
+    pos, quat = frames_from_cm(model, X.astype(float), Q.astype(float))
     poses = Poses(t=np.arange(len(X)) * dt_sample * stride, pos=pos, quat=quat, label="follow", fitness=float("nan"))
     with open_painter(model, poses, size, size) as painter, VideoWriter(out, 1.0 / (dt_sample * stride)) as w:
         for img in episode_frames(painter, [poses], "fixed", title=title):

@@ -252,7 +252,7 @@ class PopulationStudy:
         return order, best
 
 
-def _model_of(run, pipeline: str | None = None):
+def model_of(run, pipeline: str | None = None):
     """(model, episode length) a run was evolved on: its stored text, terrain and physics pipeline (``pipeline``:
     another one)."""
     from cpgjax.io.wl import parse_wl
@@ -307,7 +307,7 @@ def population_study(paths, cfg: StabilityConfig = StabilityConfig(), *, which: 
         rs = [read_run(p) for p in c.paths]
         per_cell.append(len(rs))
         for r in rs:
-            m, T = _model_of(r, pipeline)
+            m, T = model_of(r, pipeline)
             if model is None:
                 model, time = m, T
             elif m.description.text != model.description.text or T != time or m.pipeline != model.pipeline:

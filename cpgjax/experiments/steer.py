@@ -29,7 +29,7 @@ from cpgjax.episode import policy as pol
 from cpgjax.episode import steering
 from cpgjax.episode.batch import simulate
 from cpgjax.episode.rollout import FALL_TILT
-from cpgjax.experiments.follow import _render, path_distance, waypoints
+from cpgjax.experiments.follow import path_distance, render_walk, waypoints
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
 
@@ -104,7 +104,7 @@ def walks(model_path: str, ctls: list[str], paths: list[str], *, time: float = T
             raise ValueError("--video draws one walk: give one --ctl and one --path")
         X = np.asarray(tr["x"][..., 0], float)[: end + 1]
         Q = np.asarray(tr["q"][..., 0], float)[: end + 1]
-        _render(model, X, Q, float(t[1] - t[0]), video, f"follow {paths[0]}")
+        render_walk(model, X, Q, float(t[1] - t[0]), video, f"follow {paths[0]}")
     if engine == "both":
         theirs = _mujoco(model, batch, ctls, pairs, pts, time, gain, limit, reach, mujoco_dt)
         out = [w for a, b in zip(out, theirs, strict=True) for w in ({"engine": "ours"} | a, b)]

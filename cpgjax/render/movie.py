@@ -49,9 +49,9 @@ def open_painter(model, poses_or_size, width: int, height: int) -> Painter:
 
 def initial_poses(model) -> Poses:
     """The model's initial pose as a one-frame episode (for sizing the scene before simulating)."""
-    from cpgjax.render.poses import _frames_from_cm
+    from cpgjax.render.poses import frames_from_cm
 
-    pos, quat = _frames_from_cm(model, np.asarray(model.x0, float)[None], np.asarray(model.q0, float)[None])
+    pos, quat = frames_from_cm(model, np.asarray(model.x0, float)[None], np.asarray(model.q0, float)[None])
     return Poses(t=np.zeros(1), pos=pos, quat=quat, label="initial", fitness=float("nan"))
 
 

@@ -82,7 +82,7 @@ def touching(model, poses: Poses, points: np.ndarray | None = None) -> np.ndarra
     return p[..., 2] - zg < poses.margin
 
 
-def _frames_from_cm(model, x: np.ndarray, q: np.ndarray):
+def frames_from_cm(model, x: np.ndarray, q: np.ndarray):
     """Body frames from CM positions x [F, 3, nb] and orientations q [F, 4, nb] (the rollout's layout)."""
     quat = np.moveaxis(q, 1, 2)                                       # [F, nb, 4]
     cm = np.moveaxis(x, 1, 2)                                         # [F, nb, 3]
@@ -119,7 +119,7 @@ def record_ours(model, coeffs, *, time: float | None = None, fps: float = 30.0, 
                                    record=True, log_rate=fps))
     out = jax.tree.map(lambda a: np.asarray(a), f(C))
     traj = out["traj"]
-    pos, quat = _frames_from_cm(model, traj["x"][..., 0].astype(float), traj["q"][..., 0].astype(float))
+    pos, quat = frames_from_cm(model, traj["x"][..., 0].astype(float), traj["q"][..., 0].astype(float))
     inner_v, outer_v = schedule(model, T, fps)
     inner_e, outer_e = schedule(model, T)
     if inner_v * outer_v == inner_e * outer_e:      # the same integration steps: this is the evaluation

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cpgjax.crosscheck import follow as mf
-from cpgjax.crosscheck.engines import _root_slice
+from cpgjax.crosscheck.engines import root_slice
 from cpgjax.crosscheck.mjcf import initial_qpos, load
 from cpgjax.episode import policy as pol
 from cpgjax.episode import steering
@@ -34,7 +34,7 @@ def _qpos(model, mj, xy, psi):
     """MuJoCo states [B, nq] whose tracked body's CM is at ``xy`` [B, 2] (at its initial height), turned by ``psi``
     about the vertical, and our states of the same poses (the tracked body's CM ``x`` and orientation ``q``)."""
     q0 = initial_qpos(model, mj)
-    root = _root_slice(model, mj)
+    root = root_slice(model, mj)
     tr = model.track
     out, qs = [], []
     for (x, y), p in zip(xy, psi, strict=True):

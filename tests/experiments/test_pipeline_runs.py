@@ -85,8 +85,8 @@ def test_a_runs_model_is_rebuilt_on_the_pipeline_it_recorded(run_path, tmp_path,
     assert load_run(springs.path)[0].pipeline == "springs"
     assert load_run(springs.path, pipeline="exact")[0].pipeline == "exact"       # --pipeline overrides
     # stability (the population study)
-    assert stability._model_of(exact)[0].pipeline == "exact"
-    assert stability._model_of(springs)[0].pipeline == "springs"
+    assert stability.model_of(exact)[0].pipeline == "exact"
+    assert stability.model_of(springs)[0].pipeline == "springs"
     with pytest.raises(ValueError, match="physics pipeline"):
         stability.population_study([springs.path, exact.path])
 

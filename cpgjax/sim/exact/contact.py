@@ -32,7 +32,7 @@ import numpy as np
 from cpgjax.sim.contact import bristle, contact_frame, friction, ground, trail_anchor
 from cpgjax.sim.exact.levels import Dofs, dofs_add, dofs_axpy, state_dofs
 from cpgjax.sim.exact.smooth import com_vel, factor_m, project, solve_m
-from cpgjax.sim.exact.tree import _slots
+from cpgjax.sim.exact.tree import pad_slots
 from cpgjax.sim.exact.types import Com, JointSpaceInertia
 from cpgjax.sim.rotation import cross, dot
 from cpgjax.sim.tricks import gather_sum, mul, rot_const, stage, take
@@ -72,7 +72,7 @@ def _wrenches(model, pts: Points, f):
     """Body wrenches per level of vertex forces f [3, nc, B]: the force, and its torque about the root's CM (the
     vertices summed level by level, no concatenation per slot)."""
     cb = _bodies(model)
-    by_level = [_slots([list(np.nonzero(cb == b)[0]) for b in bs]) for bs in model.exact.levels.bodies]
+    by_level = [pad_slots([list(np.nonzero(cb == b)[0]) for b in bs]) for bs in model.exact.levels.bodies]
     n = cross(pts.p, f)
     return [gather_sum(f, s) for s in by_level], [gather_sum(n, s) for s in by_level]
 
@@ -118,7 +118,7 @@ def contact_jacobian(model, com: Com, pts: Points, fr) -> ContactJacobian:
         if not mask.all():
             c = c * mask.astype(np.float32)[:, None]
         joint[up] = [c[e] if isinstance(e, int) else dot(c, e) for e in dirs]
-    slots = {up: _slots([list(np.nonzero(anc_item[up] == b)[0]) for b in range(len(lv.bodies[up]))])
+    slots = {up: pad_slots([list(np.nonzero(anc_item[up] == b)[0]) for b in range(len(lv.bodies[up]))])
              for up in range(lv.depth + 1)}
     return ContactJacobian(w, normal, joint, slots)
 

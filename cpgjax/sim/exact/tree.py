@@ -127,7 +127,7 @@ class Levels:
         return len(self.bodies) - 1
 
 
-def _slots(groups: list[list[int]]) -> np.ndarray:
+def pad_slots(groups: list[list[int]]) -> np.ndarray:
     """Lists of indices, padded with -1 into a [k, n] array (k = the longest list, at least 1)."""
     k = max([len(g) for g in groups] + [1])
     out = -np.ones((k, len(groups)), np.int64)
@@ -171,7 +171,7 @@ def build_levels(tree: Tree) -> Levels:
             axis_index.append(np.zeros(len(bs), np.int64))
             rp.append(np.zeros((3, len(bs))))
             rc.append(np.zeros((3, len(bs))))
-        below.append(tuple(_slots([[i for i, d in enumerate(bs) if ancestor(d, a) == up] for up in bodies[a]])
+        below.append(tuple(pad_slots([[i for i, d in enumerate(bs) if ancestor(d, a) == up] for up in bodies[a]])
                            for a in range(lv)))
     return Levels(bodies=tuple(bodies), parent=tuple(parent), anc=tuple(anc), joint=tuple(joint), sign=tuple(sign),
                   axis_index=tuple(axis_index), r_parent=tuple(rp), r_child=tuple(rc),
