@@ -10,6 +10,7 @@ from typing import Any
 
 from cpgjax.cli import options as o
 from cpgjax.crosscheck.ground import GROUND_FORMS, ground_form
+from cpgjax.episode.cpg import GENE_BOX
 
 
 def register(subparsers: Any) -> None:
@@ -28,7 +29,8 @@ def register(subparsers: Any) -> None:
     c.add_argument("--controllers", nargs="*", metavar="RUN.h5",
                    help="run files of evolve or search: each run's 8 best distinct controllers are compared")
     c.add_argument("--random", type=o.count0, default=16,
-                   help="how many random controllers, every gene uniform in [-0.8, 0.8], to compare (default 16)")
+                   help=f"how many random controllers, every gene uniform in [-{GENE_BOX:g}, {GENE_BOX:g}], to compare "
+                        "(default 16)")
     c.add_argument("--perturbed", type=o.count0, default=16,
                    help="the hand-written trot with N(0, 0.1) added to every gene (default 16)")
     c.add_argument("--perturb-ctl", help="the controller (.ctl) that --perturbed adds noise to "

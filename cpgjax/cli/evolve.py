@@ -16,6 +16,7 @@ import sys
 from typing import Any
 
 from cpgjax.cli import options as o
+from cpgjax.episode.cpg import GENE_BOX
 
 GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossover", "mutation", "sigma",
               "init_spread", "selection", "seed", "chunk")
@@ -88,9 +89,10 @@ def register(subparsers: Any) -> None:
                         f"of duplicating one (default {'on' if d.crossover else 'off'})")
     p.add_argument("--mutation", choices=MUTATIONS, default=None,
                    help=f"how a mutated gene changes: gauss, a Gaussian step of sd --sigma; redraw, a new value "
-                        f"drawn uniformly in the search range [-0.8, 0.8] (default {d.mutation})")
+                        f"drawn uniformly in the search range [-{GENE_BOX:g}, {GENE_BOX:g}] (default {d.mutation})")
     p.add_argument("--sigma", type=o.nonneg, default=None,
-                   help=f"standard deviation of a Gaussian mutation's step, rad (default {d.sigma}; genes span 1.6)")
+                   help=f"standard deviation of a Gaussian mutation's step, rad (default {d.sigma}; genes span "
+                        f"{2 * GENE_BOX:g})")
     p.add_argument("--init-spread", type=o.nonneg, default=None,
                    help=f"the first generation: every gene of the starting controller moved by a uniform amount in "
                         f"[-s, s] (default {d.init_spread})")
@@ -122,7 +124,7 @@ def register(subparsers: Any) -> None:
                         f"{' and '.join(es.ANTITHETIC)})")
     p.add_argument("--sigma", type=o.positive, default=None,
                    help=f"evolution strategies: initial step size, the std of the search distribution "
-                        f"(default {e.sigma:g}; genes span 1.6)")
+                        f"(default {e.sigma:g}; genes span {2 * GENE_BOX:g})")
     p.add_argument("--lr", type=o.positive, default=None,
                    help=f"{' and '.join(es.GRADIENT)}: learning rate of optax.adam on the mean (default {e.lr:g})")
     p.set_defaults(func=cmd_search)

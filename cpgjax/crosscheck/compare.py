@@ -15,6 +15,7 @@ import numpy as np
 
 from cpgjax.crosscheck.engines import joint_angles, mjx_run, mujoco_run, spearman, spearman_interval
 from cpgjax.crosscheck.mjcf import MJ_TIMESTEP
+from cpgjax.episode.cpg import GENE_BOX
 
 ENGINES = ("penalty", "mujoco", "mjx")
 
@@ -55,12 +56,12 @@ def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_pertu
                 break
     rng = np.random.default_rng(seed)
     for i in range(n_random):
-        out.append(rng.uniform(-0.8, 0.8, (model.n_ctrl, model.n_coeff)))
+        out.append(rng.uniform(-GENE_BOX, GENE_BOX, (model.n_ctrl, model.n_coeff)))
         labels.append(f"random{i}")
     if n_perturbed and base_ctl:
         base = read_ctl(base_ctl, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs
         for i in range(n_perturbed):
-            out.append(np.clip(base + rng.normal(0.0, 0.1, base.shape), -0.8, 0.8))
+            out.append(np.clip(base + rng.normal(0.0, 0.1, base.shape), -GENE_BOX, GENE_BOX))
             labels.append(f"{os.path.basename(base_ctl)}+N(0,0.1)#{i}")
     return stack(out, model), labels
 

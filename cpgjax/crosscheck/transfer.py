@@ -28,6 +28,7 @@ import numpy as np
 from cpgjax.crosscheck.engines import mujoco_run, spearman, spearman_interval
 from cpgjax.crosscheck.mjcf import load
 from cpgjax.episode.batch import simulate
+from cpgjax.episode.cpg import GENE_BOX
 from cpgjax.episode.policy import family_from_meta, from_genomes
 from cpgjax.io.results import read_run
 from cpgjax.io.sweepdir import run_files
@@ -186,11 +187,12 @@ def cached_model(text: str, path: str, terrain, dt=None, joint_spring=None, pipe
 
 def jittered(genome, replays: int = 32, jitter: float = 1e-3, seed: int = 0) -> np.ndarray:
     """[replays + 1, G] float32: the genome as it is, then ``replays`` copies with every gene moved by N(0, jitter^2)
-    (clipped to the search box); the draw depends on the genome and ``seed`` only, so every replay of a controller
-    (here, in MuJoCo, in any script) sees the same jitter."""
+    (clipped to the search box, :data:`cpgjax.episode.cpg.GENE_BOX`); the draw depends on the genome and ``seed``
+    only, so every replay of a controller (here, in MuJoCo, in any script) sees the same jitter."""
     g = np.asarray(genome, np.float32)
     rng = np.random.default_rng([seed, zlib.crc32(g.tobytes())])
-    G = np.concatenate([g[None], np.clip(g[None] + rng.normal(0, jitter, (replays,) + g.shape), -0.8, 0.8)])
+    moved = np.clip(g[None] + rng.normal(0, jitter, (replays,) + g.shape), -GENE_BOX, GENE_BOX)
+    G = np.concatenate([g[None], moved])
     return G.astype(np.float32)
 
 

@@ -2,13 +2,20 @@
 
 ``q*(t) = c0 + sum_k a_k sin(2 pi k f0 t) + b_k cos(2 pi k f0 t)``, k = 1..K, f0 = 0.5 Hz.
 A controller's coefficients are ``[n_ctrl, 2K+1]`` in the `.ctl` order
-(c0, a1, b1, a2, b2, ...); the GA's genome is that array flattened row-major.
+(c0, a1, b1, a2, b2, ...); the GA's genome is that array flattened row-major, every gene searched in
+``[-GENE_BOX, GENE_BOX]`` (:data:`GENE_BOX`).
 """
 
 from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
+
+GENE_BOX = 0.8
+"""Half-width of the genome search box: every gene is searched in ``[-GENE_BOX, GENE_BOX]`` (rad for a CPG
+coefficient), the hypercube of side 1.6 of the thesis's searches (Ch. 6.2.5).  The GA clips its children to it,
+random search draws in it, :class:`cpgjax.optim.problem.Problem` takes it as its default ``lower`` / ``upper``;
+a closed-loop controller's policy genes share it (:mod:`cpgjax.episode.policy`)."""
 
 
 def basis(t, harmonics: int, f0: float):

@@ -16,11 +16,11 @@ and the targets are the open-loop CPG's bit for bit: the phase is the CPG's ``si
 by the angle ``k w d`` (``cos 0 = 1``, ``sin 0 = 0``), not a sine of a new argument.
 
 **The genome** is the CPG's coefficients (as for the open-loop CPG, row by row) followed by the policy's genes
-``g`` [outputs, inputs] row by row, all in the GA's box [-0.8, 0.8].  A weight is its gene scaled,
-``W = g * OUT[o] / SCALES[i]`` (:func:`weight_scale`): a gene of 0.8 on an input of its typical size
-(:data:`cpgjax.episode.sensors.SCALES`) moves an output by 0.8 of the output's scale (:data:`OUTPUT_SCALES`:
-0.5 rad of offset, 1.0 of frequency, 0.5 of amplitude).  The open-loop CPG's genes followed by zeros is the
-closed-loop controller that does what the CPG does.
+``g`` [outputs, inputs] row by row, all in the GA's box (:data:`cpgjax.episode.cpg.GENE_BOX`: [-0.8, 0.8]).
+A weight is its gene scaled, ``W = g * OUT[o] / SCALES[i]`` (:func:`weight_scale`): a gene of 0.8 on an input of
+its typical size (:data:`cpgjax.episode.sensors.SCALES`) moves an output by 0.8 of the output's scale
+(:data:`OUTPUT_SCALES`: 0.5 rad of offset, 1.0 of frequency, 0.5 of amplitude).  The open-loop CPG's genes
+followed by zeros is the closed-loop controller that does what the CPG does.
 
 **Latency**: with ``latency`` the action of a step uses the observation of the step before (the first step uses
 the initial state's).  **Noise**: per robot and step, uniform, drawn from the robot's key

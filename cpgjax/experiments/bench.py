@@ -29,11 +29,11 @@ AGAINST_REPEATS = 3
 
 
 def _controllers(model, n, seed=0):
-    from cpgjax.episode.cpg import sinusoid_genome
+    from cpgjax.episode.cpg import GENE_BOX, sinusoid_genome
 
     rng = np.random.default_rng(seed)
     base = sinusoid_genome(model.n_ctrl, model.harmonics).reshape(model.n_ctrl, model.n_coeff)
-    return np.clip(base[None] + rng.uniform(-0.3, 0.3, (n, model.n_ctrl, model.n_coeff)), -0.8, 0.8)
+    return np.clip(base[None] + rng.uniform(-0.3, 0.3, (n, model.n_ctrl, model.n_coeff)), -GENE_BOX, GENE_BOX)
 
 
 def measure(model, batch: int, time_s: float, *, chunk: int = 256, devices=None, repeats: int = 1):

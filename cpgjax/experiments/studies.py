@@ -15,6 +15,8 @@ import time
 
 import numpy as np
 
+from cpgjax.episode.cpg import GENE_BOX
+
 
 def timestep_study(model_path: str, ctl_path: str, dts, *, time_s: float = 10.0, n_random: int = 64,
                    seed: int = 0, out: str | None = None, pipeline: str | None = None):
@@ -25,7 +27,7 @@ def timestep_study(model_path: str, ctl_path: str, dts, *, time_s: float = 10.0,
     base = load_model(model_path, pipeline=pipeline)
     trot = np.asarray(read_ctl(ctl_path, n_dof=base.n_ctrl, harmonics=base.harmonics).coeffs)
     rng = np.random.default_rng(seed)
-    rand = rng.uniform(-0.8, 0.8, (n_random, base.n_ctrl, base.n_coeff))
+    rand = rng.uniform(-GENE_BOX, GENE_BOX, (n_random, base.n_ctrl, base.n_coeff))
     zero = np.zeros_like(trot)
     rows = []
     for dt in dts:
@@ -79,7 +81,7 @@ def table(rows, n_random, time_s):
     lines += [_fmt_row(r) for r in rows]
     lines.append(f"\nstand: zero targets, 5 s (swing: peak-to-peak CM height after 1 s); trot: "
                  f"models/quadruped-trot.ctl, {time_s:g} s; random: {n_random} controllers uniform in "
-                 f"[-0.8, 0.8]^G, {time_s:g} s.")
+                 f"[-{GENE_BOX:g}, {GENE_BOX:g}]^G, {time_s:g} s.")
     return "\n".join(lines)
 
 

@@ -6,9 +6,10 @@ typed state, driven by :func:`cpgjax.experiments.evolve.run_search` with the sam
 the same keys (``fold_in(run_key, gen)``) and the same HDF5 layout (a "generation" is one batch of
 evaluations).
 
-**Random search** (Fig. 6.10): every sample uniform in the hypercube ``[-0.8, 0.8]^G``
-(side 1.6), in batches of ``batch`` (default 20, the GA's population) until ``samples``
-(default 3000 = 20 x 150) have been evaluated.
+**Random search** (Fig. 6.10): every sample uniform in the problem's box ``[lower, upper]^G`` (by
+default ``[-GENE_BOX, GENE_BOX]^G``, the hypercube of side 1.6: :data:`cpgjax.episode.cpg.GENE_BOX`), in
+batches of ``batch`` (default 20, the GA's population) until ``samples`` (default 3000 = 20 x 150) have been
+evaluated.
 
 **Adaptive Monte Carlo** (Fig. 6.11; Calvin 1996, "Adaptive Monte Carlo global search with
 bounded memory", thesis ref. [44]).  The thesis only says: "an array of M independent random

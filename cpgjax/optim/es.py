@@ -2,7 +2,7 @@
 
 The thesis compared its GA with random search and adaptive Monte Carlo (Figs. 6.10-6.12).  The
 strategies people use today are compared here on the same budget (3000 evaluations), the same
-genome box ``[-0.8, 0.8]^G``, the same fitness (eq. 4.5-4.6, or the robust evaluation) and the
+genome box (:data:`cpgjax.episode.cpg.GENE_BOX`), the same fitness (eq. 4.5-4.6, or the robust evaluation) and the
 same drivers, through the well-kept implementations of ``evosax``; every call to ``evosax`` is in
 this module.
 
@@ -67,7 +67,7 @@ class ESConfig:
     method: str = "cmaes"
     samples: int = 3000        # evaluation budget (the GA's 20 x 150)
     population: int = 20       # samples per generation (the GA's N); see README for larger ones
-    sigma: float = 0.2         # initial step size (std of the search distribution), genes span 1.6
+    sigma: float = 0.2         # initial step size (std of the search distribution), genes span 2 GENE_BOX (1.6)
     lr: float = 0.05           # openes / pgpe: learning rate of optax.adam on the mean
     seed: int = 0
     chunk: int = 1             # generations per jitted lax.scan chunk

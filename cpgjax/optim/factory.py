@@ -17,7 +17,7 @@ import numpy as np
 
 from cpgjax.episode import steering
 from cpgjax.episode.batch import LANES, evaluate
-from cpgjax.episode.cpg import sinusoid_genome
+from cpgjax.episode.cpg import GENE_BOX, sinusoid_genome
 from cpgjax.episode.descriptors import legs
 from cpgjax.episode.fitness import DEFAULT_DELTA
 from cpgjax.episode.mirror import MirrorError
@@ -153,7 +153,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
         g = jnp.asarray(genomes, jnp.float32)
         n = g.shape[0]
         if R > 1:
-            g = jnp.clip(g[:, None, :] + offsets[None], -0.8, 0.8).reshape(n * R, -1)
+            g = jnp.clip(g[:, None, :] + offsets[None], -GENE_BOX, GENE_BOX).reshape(n * R, -1)
         r = evaluate(model, controllers(family, model, g), time=T, delta=delta, chunk=chunk)
         out = {k: r[k] for k in keys}
         if R > 1:
@@ -224,7 +224,7 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
     n_ctrl, R = model.n_ctrl, p.replicas
     G = model.n_genes if family is None else family.n_genes(model)
     sensing = {} if family is None else {"latency": p.latency, "noise": p.noise}
-    lo, hi = -0.8, 0.8
+    lo, hi = -GENE_BOX, GENE_BOX
     check_controller(p, family)     # ranges the controller cannot feel (sensor noise for the CPG, ...) refused
     if p.command > 0:   # the schedule switches at the log sample nearest the episode's middle
         from cpgjax.episode.rollout import schedule

@@ -36,7 +36,8 @@ cross-over on/off, mutation scale) side by side in one XLA program.
    ``mu = mu_max / (1 + gamma GEN)`` (eq. 6.1, :func:`mutation_rate`), GEN the generation
    just evaluated (generation 0 breeds with ``mu_max``).  A changed gene takes a Gaussian
    step ``N(0, sigma^2)`` (``gauss``, default) or is redrawn uniformly in the search range
-   (``redraw``); the result is clipped to ``[lower, upper] = [-0.8, 0.8]``.
+   (``redraw``); the result is clipped to ``[lower, upper]`` (the problem's box; by default
+   ``[-GENE_BOX, GENE_BOX]``, :data:`cpgjax.episode.cpg.GENE_BOX`).
 
 No elitism: the thesis has none; pocketing is its way to keep the best.
 
@@ -62,6 +63,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.episode.cpg import GENE_BOX
 from cpgjax.optim.algorithm import Algorithm, Scores
 from cpgjax.optim.problem import Problem
 
@@ -103,7 +105,7 @@ class GAConfig:
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
-    def params(self, lower: float = -0.8, upper: float = 0.8) -> GAParams:
+    def params(self, lower: float = -GENE_BOX, upper: float = GENE_BOX) -> GAParams:
         """The run-varying settings as a pytree of arrays (what :func:`reproduce` traces)."""
         return GAParams(
             mu_max=jnp.float32(self.mu_max), gamma=jnp.float32(self.gamma),
@@ -153,7 +155,7 @@ def mutation_rate(gen, mu_max, gamma):
 
 
 def init_population(key: jax.Array, base_genome, n: int, spread: float,
-                    lower: float = -0.8, upper: float = 0.8) -> jax.Array:
+                    lower: float = -GENE_BOX, upper: float = GENE_BOX) -> jax.Array:
     """N controllers from one (Ch. 4.3): every gene of ``base_genome`` moved by ``U(-spread, spread)``."""
     base = jnp.asarray(base_genome, jnp.float32)
     noise = jax.random.uniform(key, (n, base.shape[0]), jnp.float32, -1.0, 1.0)

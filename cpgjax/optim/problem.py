@@ -3,8 +3,8 @@
 A :class:`Problem` hides the simulator: the real one is built from a `.wl` model by
 :func:`cpgjax.optim.factory.make_problem` (the thesis fitness, eq. 4.5-4.6, averaged over an
 episode).  The genome of a controller is its `.ctl` coefficients flattened row-major, per
-controlled joint ``c0 a1 b1 ... aK bK`` (Ch. 2.2.1), searched in ``[-0.8, 0.8]`` per gene
-(the hypercube of side 1.6 of Ch. 6.2.5).
+controlled joint ``c0 a1 b1 ... aK bK`` (Ch. 2.2.1), searched in ``[-GENE_BOX, GENE_BOX]`` per gene
+(:data:`cpgjax.episode.cpg.GENE_BOX`: the hypercube of side 1.6 of Ch. 6.2.5).
 
 Cheap problems with a known optimum, for the tests, are in :mod:`cpgjax.optim.analytic`.
 """
@@ -17,12 +17,15 @@ from dataclasses import dataclass, field
 import jax
 import numpy as np
 
+from cpgjax.episode.cpg import GENE_BOX
+
 Evaluate = Callable[..., dict[str, jax.Array]]
 
 
 @dataclass(frozen=True)
 class Problem:
-    """A fitness to maximise over genomes in the box ``[lower, upper]^n_genes``.
+    """A fitness to maximise over genomes in the box ``[lower, upper]^n_genes`` (by default the genome box,
+    ``[-GENE_BOX, GENE_BOX]``, :data:`cpgjax.episode.cpg.GENE_BOX`).
 
     ``evaluate(genomes [N, G] float32)`` returns ``{"fitness": [N] float32, "diverged": [N] bool}``
     plus optional per-individual metrics (``[N]`` arrays, e.g. ``distance``, ``speed``, ``tilt``), all of which
@@ -45,7 +48,7 @@ class Problem:
     n_genes: int
     base_genome: np.ndarray
     evaluate: Evaluate
-    lower: float = -0.8
-    upper: float = 0.8
+    lower: float = -GENE_BOX
+    upper: float = GENE_BOX
     meta: dict = field(default_factory=dict)
     stochastic: bool = False

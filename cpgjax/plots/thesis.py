@@ -28,6 +28,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from cpgjax.analysis.cells import Cell, load_cells
+from cpgjax.episode.cpg import GENE_BOX
 
 Paths = Sequence[str | os.PathLike[str]]
 __all__ = ["Cell", "load_cells"]  # re-exported for the notebooks
@@ -178,7 +179,7 @@ def _search_figure(paths: Paths, kinds: tuple[str, ...], title: str) -> Figure:
 
 def fig_6_10(paths: Paths, title: str | None = None) -> Figure:
     """Fig. 6.10: random search in the hypercube of side 1.6: best so far and mean vs evaluations."""
-    return _search_figure(paths, ("random",), title or "Fig. 6.10 — random search in [−0.8, 0.8]^G")
+    return _search_figure(paths, ("random",), title or f"Fig. 6.10 — random search in [−{GENE_BOX:g}, {GENE_BOX:g}]^G")
 
 
 def fig_6_11(paths: Paths, title: str | None = None) -> Figure:
