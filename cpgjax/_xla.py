@@ -16,17 +16,17 @@ a count the user wrote in ``XLA_FLAGS`` is kept.
 
 Second, ``--xla_cpu_experimental_ynn_fusion_type=`` (empty: no YNNPACK fusions).  Why: from 96 robots
 per device, this jaxlib's XLA hands the simulator's ``reduce_sum`` reductions to the YNNPACK library,
-which sums in another order, so a robot's score depended on the size of the batch it was in (by 7e-3 to
-1e-2 in fitness from batch 88 on one device and 176 on two; below that the programs are the same).  A
+which sums in another order, so a robot's score depended on the size of the batch it was in (from about 90
+robots per device on; below that the programs are the same; docs/reproducibility.md has the figures).  A
 sweep's results must equal the same run made alone (docs/sweeps.md), and a replay must score what the GA
 recorded.  Without these fusions every batch size gives the same numbers and small batches are unchanged
-bit for bit (``tests/episode/test_rollout.py``); measured beside it, batch 512 was not slower (3.1 s
-against 4.6 s for 512 robot-seconds on 2 cores).  The flag is specific to the pinned jaxlib (0.10.x).
+bit for bit (``tests/episode/test_rollout.py``), and a large batch is not slower (docs/reproducibility.md).
+The flag is specific to the pinned jaxlib (0.10.x).
 
 Third, compiled programs are kept between runs: JAX's persistent compilation cache in
 ``$XDG_CACHE_HOME/cpgjax/xla/<cpu>`` (default ``~/.cache/...``; :func:`compile_cache_dir`).  Why: every
-command compiles the simulator again (4-7 s of the thesis-scale GA's 28-30 s on 2 cores); from the second
-run of the same program on, XLA's compile is a read from disk (docs/results/performance.md measures it).  A
+command compiles the simulator again (a sizeable share of a thesis-scale GA); from the second run of the same
+program on, XLA's compile is a read from disk (docs/results/performance.md has both).  A
 cached executable is the one XLA compiled for the same program, so results are the same bit for bit (the
 test suite has always run on such a cache: tests/conftest.py).  JAX's key covers the program, jax/jaxlib
 and the XLA flags; the folder adds the CPU's model and vector ISA, so that a home folder shared by
@@ -37,17 +37,18 @@ used first out) also turns on JAX's file lock, for sweeps whose processes share 
 column is a cold compile).
 
 Fourth: nothing patches JAX.  An LLVM option that kept loops of 9 to 16 trips from being unrolled made the exact
-pipeline at 16 robots per device about 1.5 times as fast with the same bits, but JAX's public ``compiler_options``
-cannot set the map-valued ``xla_backend_extra_options`` it needs, and set for the whole process (``XLA_FLAGS``) it
-changes the springs pipeline's bits; it is left out (docs/results/performance-exact.md, "The unroll cap").
+pipeline at 16 robots per device faster with the same bits, but JAX's public ``compiler_options`` cannot set the
+map-valued ``xla_backend_extra_options`` it needs, and set for the whole process (``XLA_FLAGS``) it changes the
+springs pipeline's bits; it is left out (docs/results/performance-exact.md, *LLVM's full unrolling capped at 8
+trips*, has the figures).
 
 Fifth, XLA's thread pools sized to the host devices (``PJRT_NPROC``, :func:`thread_pools`).  Why: XLA's CPU client
 gives each process two pools of one thread per core it may run on (at least one per host device): one runs the
 devices' programs, the other takes the kernels a program's runtime hands off when several are ready at once.  A
 step of 16 to 256 robots is hundreds of small kernels, and handing them to another thread costs more than it
 buys: with one host device on the 2-core machine (``CPGJAX_DEVICES=1``, or two such processes side by side), a
-pool of one thread ran the exact pipeline 1.4 times as fast, and the springs pipeline 1.2 times, with the
-same bits (docs/results/performance.md).  With one device per core (the default) the pools are the same size as
+pool of one thread ran both pipelines faster with the same bits (docs/results/performance.md, *XLA's thread
+pools: one thread per host device*).  With one device per core (the default) the pools are the same size as
 before.  A ``PJRT_NPROC`` or ``NPROC`` set by the user is kept; the one a cpgjax process set is set again by a
 cpgjax process it starts (a Ray worker with other host devices).
 """

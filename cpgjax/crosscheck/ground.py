@@ -10,10 +10,11 @@
   the cell's mean slopes (MuJoCo's analytic sphere-box contact); a box's top differs from the cell's two triangles by
   up to a quarter of the cell's twist: within 0.46 mm of the heightfield on 2 cm roughness sampled 4x finer.
 
-MuJoCo recomputes the pose of every geom at every step, static ones too: a mesh or boxes ground costs about 25 ns
-per piece per step, so these forms cover only where the robot can walk (:func:`walk_region`: its contact vertices'
-footprint, ``MARGIN`` either side and behind, ``REACH`` ahead); around it lies the heightfield, lowered by ``PIT``
-under the region, so that only the pieces touch a foot inside it.
+MuJoCo recomputes the pose of every geom at every step, static ones too: a mesh or boxes ground costs time per
+piece per step (docs/crosscheck.md, *The ground's form in MuJoCo*), so these forms cover only where the robot
+can walk (:func:`walk_region`: its contact vertices' footprint, ``MARGIN`` either side and behind, ``REACH``
+ahead); around it lies the heightfield, lowered by ``PIT`` under the region, so that only the pieces touch a
+foot inside it.
 """
 
 from __future__ import annotations

@@ -46,16 +46,15 @@ def lanes(model, n: int) -> int:
 def chunk_width(model, per_dev: int, chunk: int) -> int:
     """The width of the chunks that run a device's ``per_dev`` robots, at most ``chunk`` wide: :func:`lanes`'s,
     and on exact joints the power of two (of SIMD vectors) that pads them least, ties to the narrowest, not below
-    8 vectors (128 robots: narrower chunks are bound by kernel launches, and 64 robots' step costs 1.24 times
-    128's per robot, more than the padding it saves).
+    8 vectors (128 robots: narrower chunks are bound by kernel launches, and a robot-step of 64 costs more than
+    the padding it saves).
 
     Why: every power of two gives a robot the same bits (:func:`lanes`), so the choice is free; the widest one
     that fits can waste nearly half a chunk.  ``make thesis``'s sweep (600 robots per device) ran 3 chunks of
-    256 (768 robots) where 5 of 128 run 640, each robot-step as fast (one core: 1.50 M robot-steps per CPU second
-    at 256, 1.56 M at 128, 1.26 M at 64; docs/results/performance-exact.md).  Ties go to 128: a batch of 1024 on
-    2 devices ran 3,850 and 3,970 robot-s per s in chunks of 256 and 4,330 and 4,350 in chunks of 128, as fast as a
-    batch of 256 (4,190-4,330; best of 3 calls, rounds alternating, idle, 2026-11-26; a third round slowed all
-    alike), where the wider chunks made the larger batch the slower one (docs/results/performance.md).
+    256 (768 robots) where 5 of 128 run 640, a robot-step costing about as much at 128 as at 256.  Ties go to
+    128, where a batch of 1024 runs as fast as a batch of 256 (in chunks of 256 the larger batch was the slower
+    one).  The figures: docs/results/performance-exact.md (*Its step in MuJoCo's stages*, *A batch of 1024 as
+    fast as 256*).
     """
     w = lanes(model, min(chunk, per_dev))
     if model.pipeline != "exact":

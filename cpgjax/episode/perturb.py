@@ -8,7 +8,8 @@ episodes, each with fresh perturbations drawn per robot from its own key:
 
 * the initial pose: the whole robot lifted by ``U(-lift, lift)`` and rolled and pitched by
   ``U(-tilt, tilt)``;
-* the terrain (off by default: a heightfield costs 1.8x the flat ground's fast path): a heightfield
+* the terrain (off by default: a heightfield is slower than the flat ground's fast path,
+  docs/results/performance.md, *Where the step's time goes*): a heightfield
   of uniform roughness in ``[0, roughness]`` (0.1 m cells) added to the model's terrain, the robot
   placed at a random spot of it;
 * the robot as built: friction coefficients, each body's mass and inertia, and each servo's gains

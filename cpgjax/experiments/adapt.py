@@ -23,10 +23,10 @@ Matérn length scale and the observation noise fitted by maximum marginal likeli
 fitness over that space (:func:`fit_kernel`; Rasmussen & Williams 2006, eq. 2.30, type-II maximum likelihood
 over a grid), i.e. from what the robot knows before the damage.  ``"both"``: the genome and the descriptor
 together, each dimension standardised over the elites and the two groups weighted equally (:func:`joint_space`),
-fitted the same way.  Beyond Cully et al., whose GP lives in the descriptor space with a fixed ``rho``: on five
-full-scale exact-joint quadruped repertoires the damaged fitness of near neighbours correlates about twice as much
-in the genome space as in the duty descriptor's, and ``"both"`` brings the lost hind leg and every other damage
-measured within a median of 20 trials (docs/results/repertoire.md, damage recovery at full scale).
+fitted the same way.  Beyond Cully et al., whose GP lives in the descriptor space with a fixed ``rho``: the
+damaged fitness of near neighbours correlates more in the genome space than in the duty descriptor's
+(docs/repertoire.md); what each space brings, damage by damage: docs/results/repertoire.md (damage recovery at
+full scale).
 
 Per damage, :func:`study_medians` summarises the rows over the repertoires (the medians the command prints
 and docs/repertoire.md's tables quote).  Each row also keeps ``scores``, every elite's damaged fitness (in

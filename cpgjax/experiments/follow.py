@@ -16,8 +16,8 @@ speed at least ``min_speed`` of the repertoire's fastest) ordered by how close t
   cycle + ``aim`` x its heading error to its next waypoint at the cycle's end.  If none is safe, the
   least tilted.  The walk is the chosen candidate's own simulation (its state carried on to the next
   cycle, copied to the whole batch): in the simulator the prediction is exact, so what the look-ahead buys
-  is the choice, not a model.  Without the tilt bound it chooses gaits that tumble forward (measured:
-  3 of 4 paths fell in 3 cycles), so the bound is what keeps the robot up.
+  is the choice, not a model.  Without the tilt bound it chooses gaits that tumble forward
+  (docs/results/repertoire-steering.md), so the bound is what keeps the robot up.
 - **Nearest turn** (``lookahead=0``; forward elites at least half the fastest): the candidate whose turning
   rate is closest to ``w*``, run as one of a whole SIMD vector of copies (``_cycle_fn``).
 
@@ -108,8 +108,8 @@ def _cycle_fn(model, steps: int, sub: int):
 
     The robot runs as robot 0 of a whole SIMD vector of copies (:data:`cpgjax.episode.batch.LANES`), as the
     repertoire's evaluation ran it: a batch narrower than that is computed with other instructions, and an
-    evolved gait is chaotic enough that the last bits decide whether it falls (measured: the speed-turn
-    repertoire's straight gait walks 2 s in a batch of 16 and turns over in a batch of 1 or 2)."""
+    evolved gait is chaotic enough that the last bits decide whether it falls (docs/results/repertoire-steering.md:
+    a gait that walks in a batch of 16 and turns over in a batch of 1 or 2)."""
     K, f0 = model.harmonics, model.frequency
 
     def run(state, coeffs):

@@ -66,9 +66,9 @@ def compile_ahead(fn, args: tuple) -> Callable:
 
     Why (compiler behaviour, jax 0.10.2): the state a chunk returns comes back placed (sharded over
     the host devices) other than the initial one, so the *second* call of a jitted chunk traced and
-    compiled the whole program again (measured: 7 s more at thesis scale for a sweep, about 5 s for
-    one ``cpgjax evolve`` run).  Calling the ahead-of-time executable, with the arguments first put
-    where it expects them (``device_put`` does nothing when they already are), compiles exactly once.
+    compiled the whole program again (what that cost: docs/sweeps.md).  Calling the ahead-of-time
+    executable, with the arguments first put where it expects them (``device_put`` does nothing when they
+    already are), compiles exactly once.
     """
     compiled = fn.lower(*args).compile()
     shardings = compiled.input_shardings[0]

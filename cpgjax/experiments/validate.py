@@ -13,9 +13,9 @@ the run's own robust evaluation (its ``--perturb`` ranges and fall rule) with ``
 run evolved with the thesis's single episode is validated under :data:`THESIS_RUNS`, the robust
 evaluation the README recommends.  The draws come from ``seed`` alone, so a validation is reproducible.
 
-What it is for, as measured (10 robust runs, docs/evolution.md): an honest score of the controller a run
-hands over, in this simulator.  It is not a transfer fix: the champions walked no better in MuJoCo than the
-runs' bests (0.089 against 0.081, more falls), so ``cpgjax best`` and ``transfer`` keep the best by default.
+What it is for (docs/evolution.md): an honest score of the controller a run hands over, in this simulator.  It
+is not a transfer fix: the champions walked no better in MuJoCo than the runs' bests (docs/results/transfer.md),
+so ``cpgjax best`` and ``transfer`` keep the best by default.
 """
 
 from __future__ import annotations

@@ -24,8 +24,8 @@ as the GA's population does) and step size ``sigma``.  ``evosax`` minimises: it 
 run file) is the sample *mirrored* at the faces of the box (:func:`reflect`), the strategy is told
 its own sample with the fitness of that genome, and after each update its mean is projected back
 into the box.  Mirroring, not clipping: clipped samples outside the box would all score as the
-face does, a flat region in which CMA-ES's step size grows without bound (measured: sigma 0.3 ->
-3.5e4 in 60 generations with an optimum outside the box); mirrored ones score worse the further
+face does, a flat region in which CMA-ES's step size grows without bound (docs/evolution-strategies.md,
+*The box*, has the figure; ``tests/optim/test_es.py``); mirrored ones score worse the further
 out they are, so the search settles on the face.
 
 **State, as the GA's.**  :class:`ESState` holds the samples the *next* generation evaluates (as the
@@ -162,10 +162,9 @@ def _through_stored(strategy):
 
     Why (compiler behaviour, jax 0.10.2): the strategy's state used to be carried from one generation to the next
     in this packed form.  Carried as its own pytree, XLA fused evosax's arithmetic otherwise and rounded some of
-    it differently (measured: 7 of the 62 floats of sep-CMA-ES's state after generation 1, relative 3e-7; then
-    other samples), so that runs no longer gave the numbers of the runs made before; without the barrier XLA
-    folds the round trip away.  With it, the program between the barriers is the one compiled before, and so
-    is every number of a run.
+    it differently (by how much: docs/reproducibility.md), so that runs no longer gave the numbers of the runs
+    made before; without the barrier XLA folds the round trip away.  With it, the program between the barriers
+    is the one compiled before, and so is every number of a run.
     """
     real, count = jax.lax.optimization_barrier(_pack(strategy))
     return _unpacker(strategy)(real, count)

@@ -20,9 +20,8 @@ spans [0, 1]) models the damaged robot's fitness, with the repertoire's fitness 
   plausibly (``stop_z`` standard deviations) better than ``1 / alpha`` times the best trial.
   ``stop_z = 0`` is Cully's rule (the best posterior mean), which stops too early on our repertoires: the
   prior mean is the intact robot's fitness, one or two disappointing trials pull the mean of every elite
-  near them down, and the elites of a small repertoire all lie near each other (measured on 20 damage x
-  repertoire cases, docs/results/repertoire.md: it stopped after a median 2 trials at a median 0.50 of the best
-  reachable; with ``stop_z = 2`` after 9.5 at 0.85).
+  near them down, and the elites of a small repertoire all lie near each other (where both rules stop, over
+  the damage x repertoire cases: docs/results/repertoire.md).
 
 ``offset`` (off by default): the prior mean is ``P(x) + c`` with ``c`` one unknown constant under a flat prior,
 estimated from the trials with the GP (Rasmussen & Williams 2006, section 2.7, eq. 2.42; :func:`posterior`).
@@ -30,9 +29,8 @@ Cully's prior must explain a damage that lowers *every* gait as a residual ``y -
 over the tried elites' neighbours (the kernel's length scale), so after a few disappointing trials the elites
 far from them keep their intact fitness as prediction and the search goes to them, whatever their intact
 fitness; with the offset the common drop is learnt as one shift and the intact ranking (plus the local
-residuals) leads.  Measured in docs/results/repertoire.md (damage recovery at full scale): it brings the lost legs of
-the springs full-scale repertoire to 0.7 of the best reachable in 6 and 20 trials (Cully's prior: not in 50),
-not the lost hind leg of five exact-joint repertoires, and its stopping rule stops lower.
+residuals) leads.  What it brings, damage by damage, and where its stopping rule stops: docs/results/repertoire.md
+(damage recovery at full scale).
 
 Defaults are Cully's (rho 0.4, kappa 0.05, alpha 0.9, noise 1e-3) but for ``stop_z`` (2; Cully's: 0).
 A Gaussian process of twenty points over a few thousand elites is a few lines of linear algebra (a

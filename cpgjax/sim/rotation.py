@@ -71,8 +71,8 @@ def atan2(y, x):
     """Polynomial atan2, max error about 1e-5 rad.
 
     Why it exists: a prototype found the library atan2 slow inside XLA's fused CPU loops
-    and this minimax polynomial faster.  With jax 0.10.2 we measured the opposite
-    (`cpgjax bench --tricks`: the library version is faster), so it is off by default
+    and this minimax polynomial faster.  On the pinned versions it buys nothing (`cpgjax bench --tricks`;
+    docs/results/performance.md, *Where the step's time goes*), so it is off by default
     (``POLY_ATAN2``) and kept for that comparison on other versions.
     """
     if not POLY_ATAN2:

@@ -11,9 +11,9 @@ kernels (and so, where a fusion changes, with another rounding in the last bit).
   contact frame for every component and body sum that reads it).  The largest of the tricks: every stage of
   the exact pipeline (:func:`stage`), and on uneven ground the springs pipeline's contact frame and forces.
 - :func:`take`: static item lists as slices and broadcasts, not gathers (a gather does not fuse with what
-  follows: the exact step ran 1.7x slower with gathers).
+  follows; what gathers cost the exact step: docs/exact-joints.md, *What the code does for XLA's compiler*).
 - :func:`sum0`: a short sum over a leading axis as a chain of adds (XLA's reduce over a 6-long leading axis
-  was the slowest kernel of the exact step in a profile, about 200 us of 1,000).
+  was the slowest kernel of the exact step in a profile; docs/exact-joints.md).
 - :func:`rot_const`, :func:`rot_const_row`, :func:`column`, :func:`mul`: products with constants known when
   the program is traced leave out the terms that are zero (XLA does not fold ``0 * x`` for floats: it would
   change ``0 * inf``).
