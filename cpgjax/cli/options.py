@@ -94,13 +94,17 @@ def validation_options(p: argparse.ArgumentParser) -> None:
                    help="validation: the run's best distinct genomes re-scored (default 64)")
     p.add_argument("--episodes", type=count, default=16,
                    help="validation: perturbed episodes per candidate, the same for each (default 16)")
+    p.add_argument("--validate-perturb", type=perturbations, default={}, metavar="KEY=VALUE,...",
+                   help="validation: ranges that replace the run's own in the validation episodes, a stricter test "
+                        "than the evolution's (e.g. fall_zero=on,touch=0.002,jitter=0.003; keys as --perturb's)")
 
 
 def validation(args: argparse.Namespace):
     """The :class:`~cpgjax.experiments.validate.Validation` of parsed ``validation_options`` (``--seed`` too)."""
     from cpgjax.experiments.validate import Validation
 
-    return Validation(candidates=args.candidates, episodes=args.episodes, seed=args.seed)
+    return Validation(candidates=args.candidates, episodes=args.episodes, seed=args.seed,
+                      perturb=tuple(sorted(args.validate_perturb.items())))
 
 
 def list_of(conv: Callable, what: str) -> Callable:

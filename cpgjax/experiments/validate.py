@@ -49,6 +49,7 @@ class Validation:
     candidates: int = 64
     episodes: int = 16
     seed: int = 0
+    perturb: tuple = ()      # (key, value) ranges that replace the run's own (``--validate-perturb``)
 
     def __post_init__(self) -> None:
         for f in ("candidates", "episodes"):
@@ -99,10 +100,17 @@ def candidates(run: Run, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return where, genomes[picked], flat[picked]
 
 
-def perturbations(run: Run, episodes: int) -> Perturbations:
-    """The validation episodes of a run: its own robust evaluation (or :data:`THESIS_RUNS`), ``episodes`` replicas."""
+def perturbations(run: Run, episodes: int, overrides=()) -> Perturbations:
+    """The validation episodes of a run: its own robust evaluation (or :data:`THESIS_RUNS`), ``episodes`` replicas,
+    with the ranges ``overrides`` (``(key, value)`` pairs, ``preset=NAME`` among them) in place of the run's."""
     stored = run.meta.get("perturbations") if str(run.meta.get("evaluation", "thesis")) == "robust" else None
     ranges = dict(stored) if stored else dict(THESIS_RUNS)
+    extra = dict(overrides)
+    if "preset" in extra:
+        from cpgjax.episode.perturb import PRESETS
+
+        ranges |= PRESETS[extra.pop("preset")]
+    ranges |= extra
     fields = {f.name for f in dataclasses.fields(Perturbations)}
     return Perturbations(**{k: v for k, v in ranges.items() if k in fields} | {"replicas": int(episodes)})
 
@@ -124,7 +132,7 @@ def validate(run: Run, v: Validation = Validation(), pipeline: str | None = None
     if not text:
         raise ResultsError(f"{run.path}: the run holds no model (an analytic problem?): nothing to validate")
     _, time, terrain = run_setting(run)
-    p = perturbations(run, v.episodes)
+    p = perturbations(run, v.episodes, v.perturb)
     if not time:
         raise ResultsError(f"{run.path}: the run records no episode length")
     where, genomes, recorded = candidates(run, v.candidates)

@@ -51,6 +51,20 @@ def test_the_validation_episodes_are_the_runs_own_or_the_recommended_ones(runs):
         V.Validation(episodes=0)
 
 
+def test_stricter_validation_ranges_replace_the_runs_own(runs):
+    """``--validate-perturb``: the validation episodes take the given ranges in place of the run's (a stricter
+    test than the evolution's), the rest stay the run's."""
+    run = read_run(runs / "robust.h5")
+    own = V.perturbations(run, 7)
+    strict = V.perturbations(run, 7, (("fall_survival", False), ("fall_zero", True), ("jitter", 0.003)))
+    assert strict.fall_zero and not strict.fall_survival and strict.jitter == 0.003 and own.jitter != 0.003
+    assert (strict.bristle, strict.replicas) == (own.bristle, 7)
+    assert V.perturbations(run, 7, (("preset", "domain"),)).roughness == 0.04
+    # the ranges reach the validation's episodes: a range the run's controller cannot feel is refused there
+    with pytest.raises(ValueError, match="touch"):
+        V.validate(run, V.Validation(candidates=4, episodes=2, perturb=(("touch", 0.001),)))
+
+
 def test_the_champion_is_the_best_mean_over_common_episodes_and_reproducible(runs):
     run = read_run(runs / "robust.h5")
     ch = V.validate(run, SMALL)
@@ -82,6 +96,9 @@ def test_best_validate_writes_the_champion_as_a_ctl(runs, tmp_path, capsys):
     np.testing.assert_array_equal(np.asarray(coeffs, np.float32).ravel(), ch.genome)
     assert cli.main(["best", str(runs / "thesis.h5"), "--validate", "--episodes", "0"]) == 2
     assert "--episodes" in capsys.readouterr().err
+    assert cli.main(["best", str(runs / "thesis.h5"), "--validate", "--validate-perturb", "bogus=1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--validate-perturb" in err[0] and "bogus=1" in err[0]
 
 
 @pytest.mark.slow  # fast: cpgjax transfer end to end (crosscheck/test_transfer.py)
