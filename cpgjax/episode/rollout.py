@@ -158,8 +158,11 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     else:
         if time is not None or record or stability_series:
             raise ValueError("an episode length as data (length=) takes no time=, record= or stability_series=")
-        if isinstance(steer, st.Schedule):    # its switch and the tracking sums' divisors are compiled in
-            raise ValueError("a steering Schedule takes the episode's time=, not length=")
+        if schedule_:    # its switch and the tracking sums' divisors are data too (steering.switch_length)
+            if steer.switch is not None or "switch" not in length:
+                raise ValueError("with length=, a steering Schedule's switch is the length's (switch=None, "
+                                 "steering.switch_length)")
+            steer = steer.at(length["switch"])
         inner = schedule(model, None, log_rate)[0]     # the steps per log period: the model's dt and log rate alone
         outer = length["samples"]
 
@@ -329,7 +332,10 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
                    proj_mean=jnp.where(n > 0, acc["proj"] / jnp.maximum(n, 1), jnp.nan),
                    proj_min=jnp.where(n > 0, acc["proj_min"], jnp.nan), proj_undefined=outer - n)
     if schedule_:
-        hf, err = st.track_finish(acc["track"], T, steer.switch, steer.first, steer.second)
+        if length is None:
+            hf, err = st.track_finish(acc["track"], T, steer.switch, steer.first, steer.second)
+        else:
+            hf, err = st.track_finish(acc["track"], None, None, steer.first, steer.second, length)
         res.update(heading_fitness=jnp.where(acc["diverged"] | ~jnp.isfinite(hf), 0.0, hf), turn_error=err)
     if descriptors:
         d = bd.finish(acc["bd"], per_sample, per_second)

@@ -229,12 +229,15 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
     sensing = {} if family is None else {"latency": p.latency, "noise": p.noise}
     lo, hi = -GENE_BOX, GENE_BOX
     check_controller(p, family)     # ranges the controller cannot feel (sensor noise for the CPG, ...) refused
-    # the episode's length as data (one program for every length), but under a steering schedule: its switch and
-    # the tracking sums' divisors are compiled in
-    episode = None if p.command > 0 else episode_length(model, T)
+    # the episode's length as data (one program for every length); under a steering schedule with its switch, the
+    # switch's share of the episode and their reciprocals, as the host rounds the constants they replace
+    episode = episode_length(model, T)
     if p.command > 0:   # the schedule switches at the log sample nearest the episode's middle
         inner, outer = schedule(model, T)
         switch = (outer // 2) * inner * model.dt
+        episode |= steering.switch_length(switch, inner * outer * model.dt)
+        episode |= {"turn_first": np.float32(switch), "turn_second": np.float32(T - switch),
+                    "per_time": np.float32(1.0) / np.float32(T)}     # the mean command's weights (T: the --time)
 
     def evaluate_genomes(genomes, keys, length=episode):
         g = jnp.asarray(genomes, jnp.float32)
@@ -254,12 +257,12 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
         steer = None
         if p.command > 0:
             c = commands(k[: n * R], p.command)
-            steer = steering.Schedule(c[0], c[1], switch, p.command)
+            steer = steering.Schedule(c[0], c[1], None, p.command)     # its switch: the length's
         at = touch_thresholds(k[: n * R], len(legs(model)[0]), p.touch) if p.touch > 0 else None
-        span = {"time": T} if length is None else {"length": length}
         r = evaluate(model, controllers(family, model, g, nk, steer, at), delta=delta, chunk=chunk, var=var,
-                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, **span, **sensing)
-        turn = None if steer is None else (switch * jnp.abs(c[0]) + (T - switch) * jnp.abs(c[1])) / T
+                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, length=length, **sensing)
+        turn = None if steer is None else \
+            (length["turn_first"] * jnp.abs(c[0]) + length["turn_second"] * jnp.abs(c[1])) * length["per_time"]
         r = episode_scores(r, p, steered=steer is not None, turn=turn)
         out = {}
         for key in METRICS + (("turn_error",) if steer is not None else ()):
