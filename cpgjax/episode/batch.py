@@ -17,6 +17,7 @@ import numpy as np
 
 from cpgjax.episode.policy import batch_size, is_closed
 from cpgjax.episode.rollout import episode_length, rollout
+from cpgjax.episode.steering import Schedule
 
 # Robots are padded to a multiple of LANES per chunk.  Why: XLA's CPU code computes
 # full SIMD vectors and a scalar (or narrower) tail differently (vectorised vs scalar
@@ -157,11 +158,21 @@ def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 
         # same width runs one compiled program
         pad = padded_size(model, n, chunk, len(jax.devices()))[0] - n
         c = jax.tree.map(lambda a: np.concatenate([a, np.repeat(a[-1:], pad, 0)]), c) if pad else c
-        r = _jitted_evaluate(model, delta, chunk)(c, episode_length(model, time))
+        c, switch = _switch_as_data(c)
+        r = _jitted_evaluate(model, delta, chunk)(c, episode_length(model, time, switch=switch))
         out = jax.tree.map(lambda a: np.asarray(a)[..., :n], r)
     if single:
         out = jax.tree.map(lambda a: a[..., 0] if a.ndim and a.shape[-1] == 1 else a, out)
     return out
+
+
+def _switch_as_data(c):
+    """``(c, switch)``: a closed loop steered by a :class:`~cpgjax.episode.steering.Schedule` with its switch time
+    given, with the switch left to the episode's length (None), and that time; else ``(c, None)``."""
+    steer = c.steer if is_closed(c) else None
+    if not isinstance(steer, Schedule) or steer.switch is None:
+        return c, None
+    return c.replace(steer=Schedule(steer.first, steer.second, None, steer.limit)), steer.switch
 
 
 _CACHE: dict = {}

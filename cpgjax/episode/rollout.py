@@ -46,18 +46,19 @@ def schedule(model, time: float | None, log_rate: float | None = None):
     return inner, outer
 
 
-def episode_length(model, time: float | None, log_rate: float | None = None) -> dict:
+def episode_length(model, time: float | None, log_rate: float | None = None, switch: float | None = None) -> dict:
     """The episode's length as data for :func:`rollout`'s ``length``: ``{"samples": int32, "per_sample": float32,
-    "per_second": float32}`` (numpy scalars): the log samples (:func:`schedule`'s rounding), 1/samples and 1/T.
+    "per_second": float32}`` (numpy scalars): the log samples (:func:`schedule`'s rounding), 1/samples and 1/T; with
+    a steering schedule's ``switch`` (s) also its entries (:func:`cpgjax.episode.steering.switch_length`).
 
     Why reciprocals: XLA turns a division by a constant into a product with the constant's float32 reciprocal
     (folded with the constants it multiplies), a division by an argument it does not; a product with these
     reciprocals, rounded on the host as XLA rounds them, gives the bits of the length compiled in.
     """
     inner, outer = schedule(model, time, log_rate)
-    one = np.float32(1.0)
-    return {"samples": np.int32(outer), "per_sample": one / np.float32(outer),
-            "per_second": one / np.float32(inner * outer * model.dt)}
+    one, T = np.float32(1.0), inner * outer * model.dt
+    out = {"samples": np.int32(outer), "per_sample": one / np.float32(outer), "per_second": one / np.float32(T)}
+    return out if switch is None else out | st.switch_length(switch, T)
 
 
 def _healthy(s: State):

@@ -235,7 +235,7 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
     if p.command > 0:   # the schedule switches at the log sample nearest the episode's middle
         inner, outer = schedule(model, T)
         switch = (outer // 2) * inner * model.dt
-        episode |= steering.switch_length(switch, inner * outer * model.dt)
+        episode = episode_length(model, T, switch=switch)
         episode |= {"turn_first": np.float32(switch), "turn_second": np.float32(T - switch),
                     "per_time": np.float32(1.0) / np.float32(T)}     # the mean command's weights (T: the --time)
 
