@@ -16,7 +16,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.episode.policy import batch_size, is_closed
-from cpgjax.episode.rollout import rollout
+from cpgjax.episode.rollout import episode_length, rollout
+from cpgjax.episode.steering import Schedule
 
 # Robots are padded to a multiple of LANES per chunk.  Why: XLA's CPU code computes
 # full SIMD vectors and a scalar (or narrower) tail differently (vectorised vs scalar
@@ -75,29 +76,34 @@ def padded_size(model, n: int, chunk: int, devices: int) -> tuple[int, int]:
     return -(-per_dev // ch) * ch * devices, ch
 
 
-def _chunked(model, inputs, chunk, **kw):
+def _chunked(model, inputs, length=None, *, chunk, **kw):
     """Evaluate [n_chunks * chunk] robots chunk by chunk (lax.map) on one device.
 
-    ``inputs = (coeffs, var)``: batch-last arrays (``var`` may be None).
+    ``inputs = (coeffs, var)``: batch-last arrays (``var`` may be None); ``length``: the episode's length as data
+    (:func:`cpgjax.episode.rollout.episode_length`), or None (``kw``'s ``time``).
     """
     def split(a):
         a = a.reshape(a.shape[:-1] + (a.shape[-1] // chunk, chunk))
         return jnp.moveaxis(a, -2, 0)
 
+    if length is not None:
+        kw = kw | {"length": length}
     out = jax.lax.map(lambda cv: rollout(model, cv[0], var=cv[1], **kw), jax.tree.map(split, inputs))
     # robots first (for shard_map's out_specs; a no-op on the [N] results), batch-last again in `evaluate`
     return jax.tree.map(lambda a: jnp.moveaxis(jnp.moveaxis(a, 0, -2).reshape(a.shape[1:-1] + (-1,)), -1, 0), out)
 
 
-def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
+def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, length=None, **kw):
     """Traceable batched evaluation of coeffs [N, n_ctrl, 2K+1] (or a :class:`~cpgjax.episode.policy.ClosedLoop`
     of N controllers, robots first) on all local devices.
 
     Pads N to a multiple of ``devices * chunk`` (repeating the last controller), splits the
     robots across host devices with `shard_map`, and runs `rollout` in chunks on each.
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (batch-last, [..., N]),
-    padded and split with the robots.  Returns the dict of `rollout` (without trajectories), each [..., N]
-    (``[N]`` for the scores; ``[samples, N]`` for the series of ``stability_series=True``).
+    padded and split with the robots.  ``length``: the episode's length as data
+    (:func:`cpgjax.episode.rollout.episode_length`, traced or not; instead of ``time``), passed to every device:
+    one compiled program for every episode length.  Returns the dict of `rollout` (without trajectories), each
+    [..., N] (``[N]`` for the scores; ``[samples, N]`` for the series of ``stability_series=True``).
     """
     devs = jax.devices() if devices is None else devices
     N = batch_size(coeffs)
@@ -114,18 +120,24 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, **kw):
         mesh = jax.sharding.Mesh(np.asarray(devs), ("d",))
         P = jax.sharding.PartitionSpec
         specs = jax.tree.map(lambda a: P(*([None] * (a.ndim - 1)), "d"), x)
-        fn = jax.shard_map(fn, mesh=mesh, in_specs=(specs,), out_specs=P("d"), check_vma=False)
-    out = fn(x)
+        if length is None:
+            fn = jax.shard_map(fn, mesh=mesh, in_specs=(specs,), out_specs=P("d"), check_vma=False)
+        else:   # the length: the same scalars on every device
+            fn = jax.shard_map(fn, mesh=mesh, in_specs=(specs, jax.tree.map(lambda _: P(), length)),
+                               out_specs=P("d"), check_vma=False)
+    out = fn(x) if length is None else fn(x, length)
     return jax.tree.map(lambda a: jnp.moveaxis(a[:N], 0, -1), out)
 
 
 def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 256):
     """Host-side convenience: numpy in, numpy out, one compiled program per padded width (:func:`padded_size`)
-    and setting.
+    and setting, whatever the episode's length (``time``, passed as data:
+    :func:`~cpgjax.episode.rollout.episode_length`).
 
     coeffs: [N, n_ctrl, 2K+1] (or [n_ctrl, 2K+1] for one robot), or a
     :class:`~cpgjax.episode.policy.ClosedLoop` of N controllers (or of one, without the robot axis).  With
-    ``record=True`` the robots run in one batch on one device and the result has ``traj``.
+    ``record=True`` the robots run in one batch on one device and the result has ``traj`` (its shape depends on
+    the length: one program per episode length).
     """
     c = jax.tree.map(lambda a: np.asarray(a, np.float32 if np.issubdtype(np.asarray(a).dtype, np.floating)
                                           else np.asarray(a).dtype), coeffs)
@@ -146,17 +158,29 @@ def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 
         # same width runs one compiled program
         pad = padded_size(model, n, chunk, len(jax.devices()))[0] - n
         c = jax.tree.map(lambda a: np.concatenate([a, np.repeat(a[-1:], pad, 0)]), c) if pad else c
-        out = jax.tree.map(lambda a: np.asarray(a)[..., :n], _jitted_evaluate(model, time, delta, chunk)(c))
+        c, switch = _switch_as_data(c)
+        r = _jitted_evaluate(model, delta, chunk)(c, episode_length(model, time, switch=switch))
+        out = jax.tree.map(lambda a: np.asarray(a)[..., :n], r)
     if single:
         out = jax.tree.map(lambda a: a[..., 0] if a.ndim and a.shape[-1] == 1 else a, out)
     return out
 
 
+def _switch_as_data(c):
+    """``(c, switch)``: a closed loop steered by a :class:`~cpgjax.episode.steering.Schedule` with its switch time
+    given, with the switch left to the episode's length (None), and that time; else ``(c, None)``."""
+    steer = c.steer if is_closed(c) else None
+    if not isinstance(steer, Schedule) or steer.switch is None:
+        return c, None
+    return c.replace(steer=Schedule(steer.first, steer.second, None, steer.limit)), steer.switch
+
+
 _CACHE: dict = {}
 
 
-def _jitted_evaluate(model, time, delta, chunk):
-    key = (id(model), time, delta, chunk)
-    if key not in _CACHE:
-        _CACHE[key] = (model, jax.jit(partial(evaluate, model, time=time, delta=delta, chunk=chunk)))
+def _jitted_evaluate(model, delta, chunk):
+    """``f(coeffs, length)``: :func:`evaluate` jitted, the episode's length (:func:`episode_length`) an argument."""
+    key = (id(model), delta, chunk)
+    if key not in _CACHE or _CACHE[key][0] is not model:
+        _CACHE[key] = (model, jax.jit(lambda c, length: evaluate(model, c, length=length, delta=delta, chunk=chunk)))
     return _CACHE[key][1]

@@ -122,6 +122,8 @@ def update(acc, feet, down, psi, xy):
             "advance": acc["advance"] + adv, "xy": xy}
 
 
-def finish(acc, samples: int, T: float):
-    """``{"duty": [L, B], "speed": [B], "turn": [B]}`` from the sums of ``samples`` log samples over ``T`` s."""
-    return {"duty": acc["touch"] / samples, "speed": acc["advance"] / T, "turn": acc["turn"] / T}
+def finish(acc, per_sample, per_second):
+    """``{"duty": [L, B], "speed": [B], "turn": [B]}`` from the sums over the log samples: ``per_sample(a)`` is a
+    sum over the number of samples, ``per_second(a)`` one over the episode's seconds
+    (:func:`cpgjax.episode.rollout.rollout`)."""
+    return {"duty": per_sample(acc["touch"]), "speed": per_second(acc["advance"]), "turn": per_second(acc["turn"])}

@@ -1,10 +1,15 @@
 """The pure rollout of an episode: `lax.scan` over time with the fitness accumulated online (eq. 4.6).
 
-The scan is nested: an outer scan over log samples (one every 1/LogRate s) and an
+The scan is nested: an outer loop over log samples (one every 1/LogRate s) and an
 inner scan over the integration steps between two samples.  The inner loop carries
 only the state and two running sums; the outer loop checks for divergence (a robot
 whose state stops being finite or flies off is frozen at its last good sample and
 flagged) and, only when asked, records the trajectory.
+
+The inner scan's length (steps per log period) depends on the model alone.  The number of log samples is
+either compiled in (``time``: a static scan) or data (``length``, :func:`episode_length`: a ``while`` loop whose
+trip count is a traced argument), so that one compiled program serves every episode length of a model and batch
+width; the scores are the same bits either way (tests/episode/test_rollout.py).
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ import math
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from cpgjax.episode import descriptors as bd
 from cpgjax.episode import policy as pol
@@ -38,6 +44,21 @@ def schedule(model, time: float | None, log_rate: float | None = None):
     inner = max(1, int(round(1.0 / (rate * model.dt))))
     outer = max(1, int(math.ceil(round(T / model.dt, 6) / inner)))
     return inner, outer
+
+
+def episode_length(model, time: float | None, log_rate: float | None = None, switch: float | None = None) -> dict:
+    """The episode's length as data for :func:`rollout`'s ``length``: ``{"samples": int32, "per_sample": float32,
+    "per_second": float32}`` (numpy scalars): the log samples (:func:`schedule`'s rounding), 1/samples and 1/T; with
+    a steering schedule's ``switch`` (s) also its entries (:func:`cpgjax.episode.steering.switch_length`).
+
+    Why reciprocals: XLA turns a division by a constant into a product with the constant's float32 reciprocal
+    (folded with the constants it multiplies), a division by an argument it does not; a product with these
+    reciprocals, rounded on the host as XLA rounds them, gives the bits of the length compiled in.
+    """
+    inner, outer = schedule(model, time, log_rate)
+    one, T = np.float32(1.0), inner * outer * model.dt
+    out = {"samples": np.int32(outer), "per_sample": one / np.float32(outer), "per_second": one / np.float32(T)}
+    return out if switch is None else out | st.switch_length(switch, T)
 
 
 def _healthy(s: State):
@@ -85,8 +106,13 @@ def probe(model, s: State, R, p, var, delta):
 
 
 def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None, forward=1, var=None,
-            fall_ends=False, stability_series=False, descriptors=False, latency=0, noise=0.0):
+            fall_ends=False, stability_series=False, descriptors=False, latency=0, noise=0.0, length=None):
     """Run B robots with CPG coefficients [n_ctrl, 2K+1, B]; returns a dict of [B] arrays.
+
+    The episode lasts ``time`` s (None: the model's TimeMax), compiled in, or ``length`` (:func:`episode_length`,
+    instead of ``time``; traced or not), whose number of log samples is the trip count of a ``while`` loop: one
+    program for every length, the same bits.  ``record`` and ``stability_series`` return per-sample arrays, whose
+    shape needs the length compiled in: they take ``time`` only.
 
     ``coeffs`` may instead be a batch-last :class:`~cpgjax.episode.policy.ClosedLoop` (the CPG modulated by a
     policy that reads the robot's sensors every step, :mod:`cpgjax.episode.policy`); its CPG phase offset is
@@ -119,8 +145,6 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     ``Schedule`` the results add ``heading_fitness`` and ``turn_error`` [B] (the tracking sums, stopped at a fall as
     the fitness is).
     """
-    inner, outer = schedule(model, time, log_rate)
-    T = inner * outer * model.dt
     closed = pol.is_closed(coeffs)
     policy = coeffs if closed else None
     steer = policy.steer if closed else None
@@ -129,6 +153,26 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         coeffs = policy.coeffs
         if noise and policy.key is None:
             raise ValueError("sensor noise needs a key per robot (ClosedLoop.key)")
+    if length is None:
+        inner, outer = schedule(model, time, log_rate)
+        T = inner * outer * model.dt
+    else:
+        if time is not None or record or stability_series:
+            raise ValueError("an episode length as data (length=) takes no time=, record= or stability_series=")
+        if schedule_:    # its switch and the tracking sums' divisors are data too (steering.switch_length)
+            if steer.switch is not None or "switch" not in length:
+                raise ValueError("with length=, a steering Schedule's switch is the length's (switch=None, "
+                                 "steering.switch_length)")
+            steer = steer.at(length["switch"])
+        inner = schedule(model, None, log_rate)[0]     # the steps per log period: the model's dt and log rate alone
+        outer = length["samples"]
+
+    def per_sample(a):   # a sum over the samples, over their number
+        return a / outer if length is None else a * length["per_sample"]
+
+    def per_second(a):   # a sum over the episode's seconds
+        return a / T if length is None else a * length["per_second"]
+
     B = coeffs.shape[-1]
     s0 = initial_state(model, B, coeffs.dtype) if var is None else varied_initial_state(model, var, coeffs.dtype)
     K, f0, dt = model.harmonics, model.frequency, model.dt
@@ -259,22 +303,26 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     if descriptors:
         feet = bd.legs(model)[1]
         acc0["bd"] = bd.init(model, s0.x, quat_to_mat(s0.q), feet.shape[0])
-    (s_end, acc), traj = jax.lax.scan(outer_body, (s0, (acc0, cl0) if closed else acc0), None, length=outer)
+    carry0 = (s0, (acc0, cl0) if closed else acc0)
+    if length is None:
+        (s_end, acc), traj = jax.lax.scan(outer_body, carry0, None, length=outer)
+    else:   # the samples' count as data: a while loop (a scan where it is concrete), the same body
+        s_end, acc = jax.lax.fori_loop(0, outer, lambda i, c: outer_body(c, None)[0], carry0)
     if closed:
         acc, _ = acc
     if stability_series:
         traj, series = traj
     dist = s_end.x[fwd, model.track] - s0.x[fwd, model.track]
-    fitness = acc["fit"] * dt / T
+    fitness = per_second(acc["fit"] * dt)
     res = {
         "fitness": jnp.where(acc["diverged"] | ~jnp.isfinite(fitness), 0.0, fitness),
         "distance": dist,
-        "speed": dist / T,
-        "tilt": acc["tilt"] / outer,
-        "height": acc["height"] / outer,
+        "speed": per_second(dist),
+        "tilt": per_sample(acc["tilt"]),
+        "height": per_sample(acc["height"]),
         "fallen": acc["fallen"],
         "down": acc["down"],
-        "up": acc["up"] / outer,
+        "up": per_sample(acc["up"]),
         "diverged": acc["diverged"],
         "pivot_err": acc["pivot_err"],
         "depth": acc["depth"],
@@ -285,10 +333,13 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
                    proj_mean=jnp.where(n > 0, acc["proj"] / jnp.maximum(n, 1), jnp.nan),
                    proj_min=jnp.where(n > 0, acc["proj_min"], jnp.nan), proj_undefined=outer - n)
     if schedule_:
-        hf, err = st.track_finish(acc["track"], T, steer.switch, steer.first, steer.second)
+        if length is None:
+            hf, err = st.track_finish(acc["track"], T, steer.switch, steer.first, steer.second)
+        else:
+            hf, err = st.track_finish(acc["track"], None, None, steer.first, steer.second, length)
         res.update(heading_fitness=jnp.where(acc["diverged"] | ~jnp.isfinite(hf), 0.0, hf), turn_error=err)
     if descriptors:
-        d = bd.finish(acc["bd"], outer, T)
+        d = bd.finish(acc["bd"], per_sample, per_second)
         res.update(duty=d["duty"], heading_speed=d["speed"], turn=d["turn"])
     if record:   # the first sample is the initial state, at t = 0
         first = sample(s0, quat_to_mat(s0.q), cl0 if closed else None)

@@ -70,10 +70,20 @@ def command_law(err, gain: float = GAIN, limit: float = 0.4):
 
 @jax.tree_util.register_pytree_node_class
 class Schedule:
-    """A commanded turning rate per robot: ``first`` [B] until ``switch`` s, then ``second`` [B] (rad/s)."""
+    """A commanded turning rate per robot: ``first`` [B] until ``switch`` s, then ``second`` [B] (rad/s).
 
-    def __init__(self, first, second, switch: float, limit: float):
-        self.first, self.second, self.switch, self.limit = first, second, float(switch), float(limit)
+    ``switch=None``: the episode's length as data holds it (:func:`switch_length`; the rollout sets it, a traced
+    scalar, on the copy it runs: :meth:`at`)."""
+
+    def __init__(self, first, second, switch: float | None, limit: float):
+        self.first, self.second, self.limit = first, second, float(limit)
+        self.switch = None if switch is None else float(switch)
+
+    def at(self, switch) -> Schedule:
+        """This schedule switching at ``switch`` (a traced scalar; not to be flattened as a pytree)."""
+        out = Schedule(self.first, self.second, None, self.limit)
+        out.switch = switch
+        return out
 
     def tree_flatten(self):
         return (self.first, self.second), (self.switch, self.limit)
@@ -144,12 +154,26 @@ def track_update(acc, psi, xy, S, second, up):
             "turn0": acc["turn0"] + jnp.where(second, 0.0, d_up), "turn1": acc["turn1"] + jnp.where(second, d_up, 0.0)}
 
 
-def track_finish(acc, T: float, switch: float, first, second):
-    """``(heading fitness [B] m/s, turn error [B] rad/s)`` of an episode of ``T`` s switching at ``switch`` s."""
+def track_finish(acc, T: float, switch: float, first, second, length=None):
+    """``(heading fitness [B] m/s, turn error [B] rad/s)`` of an episode of ``T`` s switching at ``switch`` s, or
+    of the episode's ``length`` as data (:func:`switch_length`'s entries in it; ``T`` and ``switch`` unused)."""
+    if length is not None:   # the reciprocals rounded on the host as XLA rounds those of the constants
+        err = jnp.abs(acc["turn0"] * length["per_switch"] - first)
+        err = jnp.where(length["rest"] > 0, 0.5 * (err + jnp.abs(acc["turn1"] * length["per_rest"] - second)), err)
+        return acc["advance"] * length["per_second"], err
     err = jnp.abs(acc["turn0"] / switch - first)
     if T > switch:
         err = 0.5 * (err + jnp.abs(acc["turn1"] / (T - switch) - second))
     return acc["advance"] / T, err
+
+
+def switch_length(switch: float, T: float) -> dict:
+    """A :class:`Schedule`'s switch for the episode's length as data (:func:`cpgjax.episode.rollout.episode_length`,
+    whose ``T`` s the episode spans): float32 numpy scalars ``switch``, ``rest`` (``T - switch``) and their
+    reciprocals (0 for a ``rest`` of 0)."""
+    sw, rest = np.float32(switch), np.float32(T - switch)
+    return {"switch": sw, "rest": rest, "per_switch": np.float32(1.0) / sw,
+            "per_rest": np.float32(1.0) / rest if rest > 0 else np.float32(0.0)}
 
 
 def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0):

@@ -45,7 +45,7 @@ from cpgjax.errors import ResultsError
 from cpgjax.io import runlock
 from cpgjax.io.machine import machine, machine_differences, run_machines
 from cpgjax.io.results import RunWriter, create_run, read_attrs, read_resume_point
-from cpgjax.optim.algorithm import Algorithm, make_chunk_fn
+from cpgjax.optim.algorithm import Algorithm, chunk_args, make_chunk_fn
 from cpgjax.optim.problem import Problem
 
 # --- keys and the chunk program ------------------------------------------------------------------------------
@@ -76,12 +76,14 @@ def compile_ahead(fn, args: tuple) -> Callable:
 
 
 class _CompiledOnFirstCall:
-    """A jitted function compiled ahead of time (:func:`compile_ahead`) for the arguments of its first call."""
+    """A jitted function compiled ahead of time (:func:`compile_ahead`) for the arguments of its first call, each
+    call's arguments followed by ``tail``."""
 
-    def __init__(self, fn: Callable):
-        self.fn, self.call = fn, None
+    def __init__(self, fn: Callable, tail: tuple = ()):
+        self.fn, self.call, self.tail = fn, None, tail
 
     def __call__(self, *args):
+        args = args + self.tail
         if self.call is None:
             self.call = compile_ahead(self.fn, args)
         return self.call(*args)
@@ -95,14 +97,17 @@ def cached_chunk_fn(problem: Problem, algo: Algorithm, chunk: int, static: tuple
 
     Reused across calls with the same ``evaluate`` and static settings (``static``: what else the program
     depends on, e.g. a search's whole configuration but the seed; several runs of one problem in a process,
-    tests, resume: compile once).  Compiled ahead of time on first use (:func:`compile_ahead`).
+    tests, resume: compile once).  Compiled ahead of time on first use (:func:`compile_ahead`).  The episode's
+    length is an argument of the program (``problem.length``, appended to every call: :func:`chunk_args`), not a
+    constant in it: problems that differ by the length alone compile the same program (which the persistent
+    compilation cache then holds once).
     """
     key = (id(problem.evaluate), problem.n_genes, problem.lower, problem.upper, algo.kind,
            algo.population, chunk, static)
     hit = _CHUNK_CACHE.get(key)
     if hit is not None and hit[0] is problem.evaluate:
         return hit[1]
-    fn = _CompiledOnFirstCall(make_chunk_fn(problem, [algo], [1], chunk))   # same shapes for every hit of the key
+    fn = _CompiledOnFirstCall(make_chunk_fn(problem, [algo], [1], chunk), chunk_args(problem))   # same shapes
     if len(_CHUNK_CACHE) >= 16:
         _CHUNK_CACHE.pop(next(iter(_CHUNK_CACHE)))
     _CHUNK_CACHE[key] = (problem.evaluate, fn)

@@ -133,7 +133,7 @@ def eval_keys(k_update: jax.Array, gen, n: int) -> jax.Array:
 
 
 def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequence[int]):
-    """One generation of groups of runs: ``(params, states, kps, kus, gens, targets) -> (states, rows)``.
+    """One generation of groups of runs: ``(params, states, kps, kus, gens, targets[, length]) -> (states, rows)``.
 
     Per group (lists, one entry per group of ``sizes[i]`` runs of ``algos[i]``): ``params`` and
     ``states`` stacked over its runs, ``kps``/``kus`` ``[R]`` keys, ``gens``/``targets`` ``[R]``
@@ -141,7 +141,8 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
     ``problem.evaluate``; a run with ``gen >= target`` keeps its state.  ``rows`` per group:
     genomes ``[R, N, G]``, raw fitness and diverged (flag or non-finite fitness) ``[R, N]``, the
     mutation rate ``[R]``, the problem's other outputs (``metrics``, by name) ``[R, N]`` and what the
-    run file stores of the new state (``state``: :meth:`Algorithm.save`, by name).
+    run file stores of the new state (``state``: :meth:`Algorithm.save`, by name).  ``length``: the episode's
+    length as data (``problem.length``, passed to ``problem.evaluate``), None for the problem's own compiled in.
     """
     G = problem.n_genes
     # The evaluation as a jitted function of its own, whose constants (the model's arrays) stay literals
@@ -154,7 +155,8 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
     # (tests/experiments/test_sweep.py).  With two or more devices it changes no result.
     evaluate = jax.jit(problem.evaluate)
 
-    def generation(params, states, kps, kus, gens, targets):
+    def generation(params, states, kps, kus, gens, targets, length=None):
+        span = {} if length is None else {"length": length}
         proposals, asked = [], []
         for a, p, s, kp, gen in zip(algos, params, states, kps, gens, strict=True):
             keys = jax.vmap(jax.random.fold_in)(kp, gen)
@@ -167,9 +169,9 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
         if problem.stochastic:
             keys = [jax.vmap(partial(eval_keys, n=a.population))(ku, gen).reshape(-1)
                     for a, ku, gen in zip(algos, kus, gens, strict=True)]
-            ev = evaluate(flat, jnp.concatenate(keys))
+            ev = evaluate(flat, jnp.concatenate(keys), **span)
         else:
-            ev = evaluate(flat)
+            ev = evaluate(flat, **span)
         new_states, rows, off = [], [], 0
         for a, p, s, s_asked, ku, gen, tgt, x, r in zip(algos, params, states, asked, kus, gens, targets,
                                                         proposals, sizes, strict=True):
@@ -193,23 +195,26 @@ def generation_step(problem: Problem, algos: Sequence[Algorithm], sizes: Sequenc
 
 
 def make_chunk_fn(problem: Problem, algos: Sequence[Algorithm], sizes: Sequence[int], chunk: int):
-    """Jitted ``(params, states, kps, kus, gen0, targets) -> (states, rows)``: ``chunk`` generations in a scan.
+    """Jitted ``(params, states, kps, kus, gen0, targets[, length]) -> (states, rows)``: ``chunk`` generations in a
+    scan.
 
     Arguments as :func:`generation_step`'s, with ``gen0`` the next generation of each run; ``rows``
     per group are ``[chunk, R, ...]``.  A step in which no run is active (past every target, in the
-    last chunk) is skipped by a ``lax.cond`` (zeros), so one compiled program serves every chunk.
+    last chunk) is skipped by a ``lax.cond`` (zeros), so one compiled program serves every chunk.  Pass
+    ``problem.length`` as ``length`` (an argument of the program, not a constant in it): one program then serves
+    every episode length of the model and population (:func:`chunk_args` appends it).
     """
     generation = generation_step(problem, algos, sizes)
 
-    def run_chunk(params, states, kps, kus, gen0, targets):
-        spec = jax.eval_shape(generation, params, states, kps, kus, gen0, targets)[1]
+    def run_chunk(params, states, kps, kus, gen0, targets, length=None):
+        spec = jax.eval_shape(generation, params, states, kps, kus, gen0, targets, length)[1]
 
         def body(states, i):
             gens = [g + i for g in gen0]
             busy = jnp.any(jnp.stack([jnp.any(g < t) for g, t in zip(gens, targets, strict=True)]))
 
             def active(states):
-                return generation(params, states, kps, kus, gens, targets)
+                return generation(params, states, kps, kus, gens, targets, length)
 
             def idle(states):
                 return states, jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), spec)
@@ -219,3 +224,9 @@ def make_chunk_fn(problem: Problem, algos: Sequence[Algorithm], sizes: Sequence[
         return jax.lax.scan(body, states, jnp.arange(chunk, dtype=jnp.int32))
 
     return jax.jit(run_chunk)
+
+
+def chunk_args(problem: Problem) -> tuple:
+    """What a chunk program of ``problem`` takes after its six arguments (:func:`make_chunk_fn`): the episode's
+    length as data where the problem has one (``problem.length``), else nothing."""
+    return () if problem.length is None else (problem.length,)

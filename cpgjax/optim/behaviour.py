@@ -23,6 +23,7 @@ from cpgjax.episode import damage as dmg
 from cpgjax.episode import descriptors as bd
 from cpgjax.episode.batch import evaluate
 from cpgjax.episode.fitness import DEFAULT_DELTA
+from cpgjax.episode.rollout import episode_length
 from cpgjax.io.wl import load_wl
 from cpgjax.optim.factory import base_genome
 from cpgjax.optim.problem import Problem
@@ -56,11 +57,13 @@ def behaviour_problem(model_path: str, *, descriptor: str = "duty", time: float 
     leg_names = bd.legs(intact)[0]
     dims = descriptor_metrics(intact, descriptor)
 
-    def evaluate_genomes(genomes):
+    episode = episode_length(model, T)
+
+    def evaluate_genomes(genomes, length=episode):
         g = jnp.asarray(genomes, jnp.float32).reshape(-1, n_ctrl, n_coeff)
         if damages:
             g = g * mask
-        r = evaluate(model, g, time=T, delta=delta, chunk=chunk, descriptors=True, fall_ends=True)
+        r = evaluate(model, g, length=length, delta=delta, chunk=chunk, descriptors=True, fall_ends=True)
         out = {k: r[k] for k in ("fitness", "diverged", "distance", "speed", "tilt", "fallen", "down")}
         for i, n in enumerate(leg_names):
             out[f"duty_{n}"] = r["duty"][i]
@@ -75,5 +78,5 @@ def behaviour_problem(model_path: str, *, descriptor: str = "duty", time: float 
             "cli_problem_args": json.dumps({"time": time, "terrain": terrain, "delta": delta,
                                             "pipeline": pipeline, "descriptor": descriptor, "damage": damage})}
     return Problem(name=str(model_path), n_genes=model.n_genes, base_genome=np.asarray(base_genome(intact)),
-                   evaluate=evaluate_genomes, meta=meta)
+                   evaluate=evaluate_genomes, meta=meta, length=episode)
 

@@ -32,6 +32,7 @@ from cpgjax.episode.perturb import (
 )
 from cpgjax.episode.policy import Family, from_control, from_genomes, parse_controller, to_genome, widen
 from cpgjax.episode.policy import base_genome as policy_base
+from cpgjax.episode.rollout import episode_length, schedule
 from cpgjax.io.wl import load_model
 from cpgjax.optim.analytic import analytic_problem
 from cpgjax.optim.problem import Problem
@@ -149,12 +150,14 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     offsets[0] = 0.0
     keys = ("fitness", "diverged", "distance", "speed", "tilt", "fallen")
 
-    def evaluate_genomes(genomes):
+    episode = episode_length(model, T)
+
+    def evaluate_genomes(genomes, length=episode):
         g = jnp.asarray(genomes, jnp.float32)
         n = g.shape[0]
         if R > 1:
             g = jnp.clip(g[:, None, :] + offsets[None], -GENE_BOX, GENE_BOX).reshape(n * R, -1)
-        r = evaluate(model, controllers(family, model, g), time=T, delta=delta, chunk=chunk)
+        r = evaluate(model, controllers(family, model, g), length=length, delta=delta, chunk=chunk)
         out = {k: r[k] for k in keys}
         if R > 1:
             out = {k: (v.reshape(n, R).any(1) if v.dtype == jnp.bool_ else v.reshape(n, R).mean(1))
@@ -176,7 +179,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     } | controller_meta(family)
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
     return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base, symmetrize=True),
-                   evaluate=evaluate_genomes, meta=meta)
+                   evaluate=evaluate_genomes, meta=meta, length=episode)
 
 
 def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) -> dict:
@@ -226,13 +229,17 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
     sensing = {} if family is None else {"latency": p.latency, "noise": p.noise}
     lo, hi = -GENE_BOX, GENE_BOX
     check_controller(p, family)     # ranges the controller cannot feel (sensor noise for the CPG, ...) refused
+    # the episode's length as data (one program for every length); under a steering schedule with its switch, the
+    # switch's share of the episode and their reciprocals, as the host rounds the constants they replace
+    episode = episode_length(model, T)
     if p.command > 0:   # the schedule switches at the log sample nearest the episode's middle
-        from cpgjax.episode.rollout import schedule
-
         inner, outer = schedule(model, T)
         switch = (outer // 2) * inner * model.dt
+        episode = episode_length(model, T, switch=switch)
+        episode |= {"turn_first": np.float32(switch), "turn_second": np.float32(T - switch),
+                    "per_time": np.float32(1.0) / np.float32(T)}     # the mean command's weights (T: the --time)
 
-    def evaluate_genomes(genomes, keys):
+    def evaluate_genomes(genomes, keys, length=episode):
         g = jnp.asarray(genomes, jnp.float32)
         n = g.shape[0]
         k = jax.vmap(lambda kk: jax.random.split(kk, R))(keys).reshape(n * R)
@@ -250,11 +257,12 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
         steer = None
         if p.command > 0:
             c = commands(k[: n * R], p.command)
-            steer = steering.Schedule(c[0], c[1], switch, p.command)
+            steer = steering.Schedule(c[0], c[1], None, p.command)     # its switch: the length's
         at = touch_thresholds(k[: n * R], len(legs(model)[0]), p.touch) if p.touch > 0 else None
-        r = evaluate(model, controllers(family, model, g, nk, steer, at), time=T, delta=delta, chunk=chunk, var=var,
-                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, **sensing)
-        turn = None if steer is None else (switch * jnp.abs(c[0]) + (T - switch) * jnp.abs(c[1])) / T
+        r = evaluate(model, controllers(family, model, g, nk, steer, at), delta=delta, chunk=chunk, var=var,
+                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, length=length, **sensing)
+        turn = None if steer is None else \
+            (length["turn_first"] * jnp.abs(c[0]) + length["turn_second"] * jnp.abs(c[1])) * length["per_time"]
         r = episode_scores(r, p, steered=steer is not None, turn=turn)
         out = {}
         for key in METRICS + (("turn_error",) if steer is not None else ()):
@@ -270,4 +278,4 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
             "replicas": R, "perturbations": p.to_dict()} | controller_meta(family)
     base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
     return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base, symmetrize=True),
-                   evaluate=evaluate_genomes, meta=meta, stochastic=True)
+                   evaluate=evaluate_genomes, meta=meta, stochastic=True, length=episode)

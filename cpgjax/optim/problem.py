@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import jax
 import numpy as np
@@ -42,6 +43,11 @@ class Problem:
     ``base_genome`` is the thesis's start (Ch. 4.3): one 0.5 Hz sinusoid per joint.
     ``meta`` holds strings and numbers stored as HDF5 attributes of a run (model path and text,
     simulation settings, ``n_dof`` and ``harmonics`` to turn a genome back into a `.ctl`).
+
+    ``length``: the episode's length as data (:func:`cpgjax.episode.rollout.episode_length`), or None.  Where set,
+    ``evaluate`` also takes it as the keyword ``length`` (its default: this one), and the drivers pass it as an
+    argument of the compiled program (:func:`cpgjax.optim.algorithm.make_chunk_fn`): one program for every
+    episode length of a model and population.
     """
 
     name: str
@@ -52,3 +58,4 @@ class Problem:
     upper: float = GENE_BOX
     meta: dict = field(default_factory=dict)
     stochastic: bool = False
+    length: Any = None

@@ -42,7 +42,7 @@ def test_turning_rate_and_speed_on_a_circle_of_known_radius(direction):
     for i in range(1, samples + 1):
         acc = bd.update(acc, np.zeros((0, 1), bool), jnp.zeros((1, 2), bool), bd.heading(m, _rot_z(psi[i])),
                         jnp.asarray(np.stack([x[i], y[i]])))
-    out = bd.finish(acc, samples, T)
+    out = bd.finish(acc, lambda a: a / samples, lambda a: a / T)
     np.testing.assert_allclose(np.asarray(out["turn"]), w, rtol=1e-5)
     dpsi = np.abs(w) * T / samples
     np.testing.assert_allclose(np.asarray(out["speed"]), v, rtol=dpsi.max() ** 2 / 24 * 1.01 + 1e-6)
@@ -56,7 +56,7 @@ def test_duty_factor_is_the_share_of_samples_with_any_foot_vertex_down():
     acc = bd.init(m, jnp.zeros((3, 1, 1)), _rot_z(np.zeros(1)), 2)
     for p in pattern:
         acc = bd.update(acc, feet, jnp.asarray(p[:, None]), jnp.zeros(1), jnp.zeros((2, 1)))
-    np.testing.assert_allclose(np.asarray(bd.finish(acc, 4, 1.0)["duty"])[:, 0], [0.5, 0.25])
+    np.testing.assert_allclose(np.asarray(bd.finish(acc, lambda a: a / 4, lambda a: a)["duty"])[:, 0], [0.5, 0.25])
 
 
 def test_a_robot_standing_still_has_every_foot_always_down_and_does_not_turn():

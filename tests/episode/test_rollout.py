@@ -1,10 +1,12 @@
 """Episodes (cpgjax/episode/rollout.py, batch.py) on the quadruped: standing, walking, batching, divergence, clock."""
 
+import jax
 import numpy as np
 import pytest
 from runcases import TINY_TIME
 
 from cpgjax.episode.batch import simulate
+from cpgjax.episode.rollout import episode_length, rollout
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
 
@@ -63,6 +65,29 @@ def test_a_batch_of_n_equals_n_single_runs_and_is_deterministic(quad):
         np.testing.assert_array_equal(one["distance"], batch["distance"][i])
         np.testing.assert_array_equal(one["fitness"], batch["fitness"][i])
     np.testing.assert_array_equal(recorded["fitness"], batch["fitness"][:3])
+
+
+LOWERED: list = []     # one entry per program lowered to XLA (every program compiled or read from the cache)
+jax.monitoring.register_event_duration_secs_listener(
+    lambda name, secs, **kw: LOWERED.append(name) if name.endswith("/jaxpr_to_mlir_module_duration") else None)
+
+
+def test_one_program_serves_every_episode_length_with_the_bits_of_the_length_compiled_in(quad):
+    """The episode's length is data (`episode_length`: a while loop over the log samples): two lengths of one model
+    and width are one program (no second lowering, so no second compile), and its scores are the bits of the length
+    compiled in (a recorded episode: a static scan), every key."""
+    C = np.random.default_rng(0).uniform(-0.5, 0.5, (197, 8, 5))[:3]     # the robots recorded in the test above
+    short = simulate(quad, C, time=TINY_TIME)             # one robot's program in the test above (the same width)
+    n = len(LOWERED)
+    longer = simulate(quad, C, time=2 * TINY_TIME)
+    assert len(LOWERED) == n, "a second episode length compiled a program of its own"
+    assert np.all(longer["distance"] != short["distance"])
+    recorded = simulate(quad, C, time=TINY_TIME, record=True)
+    assert set(short) == set(recorded) - {"traj"}
+    for k in short:
+        np.testing.assert_array_equal(short[k], recorded[k], err_msg=k)
+    with pytest.raises(ValueError, match="length"):
+        rollout(quad, np.zeros((8, 5, 16), np.float32), length=episode_length(quad, 1.0), record=True)
 
 
 def test_a_diverging_episode_is_flagged_not_crashed():

@@ -107,3 +107,25 @@ def test_a_run_file_stores_the_state_by_name_and_another_layout_is_refused_on_re
     with pytest.raises(ResultsError, match=r"its state 'population' has shape \(20, 11\), this version stores "
                                            r"\(20, 10\)"):
         run_ga(PROBLEM, GA, out, resume=True)
+
+
+def test_problems_that_differ_by_the_episode_length_alone_lower_to_one_program():
+    """The episode's length is an argument of the chunk program (`Problem.length`, `chunk_args`), not a constant in
+    it: the GA's programs of the quadruped at two lengths are the same text, so the persistent compilation cache
+    holds one (traced and lowered here, not compiled)."""
+    from runcases import TINY_TIME
+
+    from cpgjax.experiments.runner import one_run
+    from cpgjax.optim.algorithm import chunk_args
+    from cpgjax.optim.factory import make_problem
+
+    texts = []
+    for T in (TINY_TIME, 2 * TINY_TIME):
+        problem = make_problem("models/quadruped.wl", time=T)
+        ga = make_algorithm(problem, GAConfig(population=6, generations=2))
+        k_init, k_prop, k_upd = run_keys(1)
+        state = jax.eval_shape(ga.init, ga.params, k_init)
+        args = ([one_run(ga.params)], [jax.tree.map(lambda s: jax.ShapeDtypeStruct((1, *s.shape), s.dtype), state)],
+                [k_prop[None]], [k_upd[None]], [jnp.zeros(1, jnp.int32)], [jnp.full(1, 2, jnp.int32)])
+        texts.append(make_chunk_fn(problem, [ga], [1], 2).lower(*args, *chunk_args(problem)).as_text())
+    assert texts[0] == texts[1]

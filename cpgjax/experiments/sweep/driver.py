@@ -55,7 +55,7 @@ from cpgjax.experiments.sweep.plan import MANIFEST, RunSpec
 from cpgjax.io import runlock
 from cpgjax.io.results import Row, RunWriter
 from cpgjax.io.sweepdir import find_runs
-from cpgjax.optim.algorithm import make_algorithm, make_chunk_fn, stack_params
+from cpgjax.optim.algorithm import chunk_args, make_algorithm, make_chunk_fn, stack_params
 from cpgjax.optim.factory import make_problem
 from cpgjax.optim.problem import Problem
 
@@ -206,7 +206,7 @@ def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwr
             algos = [g["algo"] for g in groups]
             sizes = [len(g["specs"]) for g in groups]
             fn = make_chunk_fn(problem, algos, sizes, chunk)
-            args = partial(_chunk_args, groups)
+            args = partial(_chunk_args, groups, chunk_args(problem))
             check_stop()
             t0 = time.perf_counter()
             fn = compile_ahead(fn, args())
@@ -259,11 +259,11 @@ def _run_sweep(problem: Problem, specs: Sequence[RunSpec], *, chunk: int, overwr
             "evals_per_second": rate, "cores_busy": cores_busy}
 
 
-def _chunk_args(groups):
+def _chunk_args(groups, tail=()):
     return ([g["params"] for g in groups], [g["states"] for g in groups],
             [g["k_prop"] for g in groups], [g["k_upd"] for g in groups],
             [jnp.asarray(g["completed"], jnp.int32) for g in groups],
-            [jnp.asarray(g["targets"], jnp.int32) for g in groups])
+            [jnp.asarray(g["targets"], jnp.int32) for g in groups]) + tail
 
 
 def _write(pending, t_start: float) -> int:
