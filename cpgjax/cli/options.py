@@ -96,8 +96,8 @@ def validation_options(p: argparse.ArgumentParser) -> None:
                    help="validation: perturbed episodes per candidate, the same for each (default 16)")
     p.add_argument("--validate-perturb", type=perturbations, default={}, metavar="KEY=VALUE,...",
                    help="validation: ranges that replace the run's own in the validation episodes, a stricter test "
-                        "than the evolution's (e.g. fall_zero=on,touch=0.002,jitter=0.003; keys as --perturb's; default: "
-                        "none, the run's own ranges)")
+                        "than the evolution's (e.g. fall_zero=on,touch=0.002,jitter=0.003; keys as --perturb's; "
+                        "default: none, the run's own ranges)")
 
 
 def validation(args: argparse.Namespace):
