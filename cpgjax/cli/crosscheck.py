@@ -230,9 +230,8 @@ def cmd_transfer(args: argparse.Namespace) -> int:
         def pick(run):
             champion = validate(run, v)
             return champion.recorded, champion.genome, champion.to_dict()
-        stricter = "".join(f", {k}={x}" for k, x in v.perturb)
         here.append(f"each run's validated champion ({v.candidates} candidates x {v.episodes} episodes, "
-                    f"seed {v.seed}{stricter})")
+                    f"seed {v.seed}{v.stricter})")
     with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar, ground_form(args.mujoco_ground):
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
                                        dt=args.dt, joint_spring=args.joint_spring, pipeline=args.pipeline,

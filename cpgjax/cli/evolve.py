@@ -289,7 +289,8 @@ def cmd_best(args: argparse.Namespace) -> int:
         if args.pipeline is not None and args.pipeline != run.pipeline:
             print(f"{args.run}: validating on the {args.pipeline} pipeline, not the run's {run.pipeline}")
         ch = validate(run, v, pipeline=args.pipeline)
-        print(f"{args.run}: validated {len(ch.scores)} candidates over {v.episodes} perturbed episodes (seed {v.seed}):"
+        print(f"{args.run}: validated {len(ch.scores)} candidates over {v.episodes} perturbed episodes "
+              f"(seed {v.seed}{v.stricter}):"
               f" the best recorded one ({fit:.6f}) scores {ch.scores[0]:.6f}; the champion scores {ch.score:.6f}")
         gen, idx, fit, genome = ch.generation, ch.index, ch.recorded, ch.genome
     n_dof, harmonics = int(run.meta.get("n_dof", 0) or 0), int(run.meta.get("harmonics", -1))

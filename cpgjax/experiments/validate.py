@@ -51,6 +51,11 @@ class Validation:
     seed: int = 0
     perturb: tuple = ()      # (key, value) ranges that replace the run's own (``--validate-perturb``)
 
+    @property
+    def stricter(self) -> str:
+        """``", key=value, ..."`` of the ranges that replace the run's own (empty without), for a summary line."""
+        return "".join(f", {k}={x}" for k, x in self.perturb)
+
     def __post_init__(self) -> None:
         for f in ("candidates", "episodes"):
             if int(getattr(self, f)) < 1:

@@ -60,6 +60,8 @@ def test_stricter_validation_ranges_replace_the_runs_own(runs):
     assert strict.fall_zero and not strict.fall_survival and strict.jitter == 0.003 and own.jitter != 0.003
     assert (strict.bristle, strict.replicas) == (own.bristle, 7)
     assert V.perturbations(run, 7, (("preset", "domain"),)).roughness == 0.04
+    assert V.Validation(perturb=(("fall_zero", True), ("jitter", 0.003))).stricter == ", fall_zero=True, jitter=0.003"
+    assert V.Validation().stricter == ""
     # the ranges reach the validation's episodes: a range the run's controller cannot feel is refused there
     with pytest.raises(ValueError, match="touch"):
         V.validate(run, V.Validation(candidates=4, episodes=2, perturb=(("touch", 0.001),)))
