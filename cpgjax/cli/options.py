@@ -153,6 +153,12 @@ def _perturbation(key: str, kind: object, value: str) -> bool | int | float:
             raise argparse.ArgumentTypeError(f"latency: expected 0 or 1 (steps between observation and action), "
                                              f"got {value!r}")
         return int(v)
+    if key == "worst":
+        try:
+            return whole(v, "a whole number >= 0", 0)
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(f"worst: expected a whole number >= 0 (0: the mean of all the episodes), "
+                                             f"got {value!r}") from None
     integer = kind in (int, "int")
     what = "a whole number >= 1" if integer else "a finite number >= 0"
     try:

@@ -93,6 +93,7 @@ class Perturbations:
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
+    worst: int = 0             # the score is the mean of the worst this many of the replicas' episodes (0: all)
 
     def __post_init__(self) -> None:
         if self.replicas < 1:
@@ -122,6 +123,9 @@ class Perturbations:
             raise ValueError(f"perturbation turn_speed ({self.turn_speed:g}) is the speed credited at a full turn, "
                              f"the cap falling to it from speed at no turn: give speed too, at least as large "
                              f"(e.g. command=0.4,speed=0.6,turn_speed=0.2)")
+        if not 0 <= self.worst <= self.replicas:
+            raise ValueError(f"perturbation worst is how many of the {self.replicas} episodes (replicas) the score "
+                             f"is the mean of, the worst ones: 0 (all) to {self.replicas}, got {self.worst}")
         if self.fall_zero and self.fall_survival:
             raise ValueError("fall_zero and fall_survival exclude each other: a fall forfeits the episode or scales it")
 
@@ -174,11 +178,13 @@ MEANING = {
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
     "fall_zero": "when on, a fall forfeits the episode, it scores 0",
     "fall_survival": "when on, a fall scales the episode's score by the share of it before the fall",
+    "worst": "the score is the mean of the worst this many of the replicas' episodes, 0 to replicas (default 0: the "
+             "mean of all; e.g. 1: the worst episode, a gait scored by its bad luck rather than its good)",
 }
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
-         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0}
+         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the

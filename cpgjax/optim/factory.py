@@ -200,6 +200,19 @@ def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) 
     return r
 
 
+def replica_scores(r: dict, p: Perturbations, n: int, steered: bool = False) -> dict:
+    """Each controller's results from its ``p.replicas`` episodes (``r``'s arrays are ``[n * replicas]``, a
+    controller's episodes side by side): ``diverged`` if any diverged, the other metrics their means, and the
+    fitness the mean of all of them or, with ``p.worst``, of the ``worst`` lowest (a gait scored by its bad luck)."""
+    out = {}
+    for key in METRICS + (("turn_error",) if steered else ()):
+        v = r[key].reshape(n, p.replicas)
+        out[key] = v.any(1) if key == "diverged" else v.astype(jnp.float32).mean(1)
+    if p.worst:
+        out["fitness"] = jnp.sort(r["fitness"].reshape(n, p.replicas), axis=1)[:, : p.worst].mean(1)
+    return out
+
+
 def controllers(family: Family | None, model, g, key=None, steer=None, touch=None):
     """The controllers of genomes ``g`` [N, G] (:func:`cpgjax.episode.policy.from_genomes`), computed apart from the
     simulation (the barrier: the same weights in every program, cf. :func:`robust_problem`)."""
@@ -264,11 +277,7 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
         turn = None if steer is None else \
             (length["turn_first"] * jnp.abs(c[0]) + length["turn_second"] * jnp.abs(c[1])) * length["per_time"]
         r = episode_scores(r, p, steered=steer is not None, turn=turn)
-        out = {}
-        for key in METRICS + (("turn_error",) if steer is not None else ()):
-            v = r[key].reshape(n, R)
-            out[key] = v.any(1) if key == "diverged" else v.astype(jnp.float32).mean(1)
-        return out
+        return replica_scores(r, p, n, steered=steer is not None)
 
     desc = model.description
     meta = {"model_path": str(wl_path), "model_text": desc.text if desc else "", "time": T,

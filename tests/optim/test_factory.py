@@ -128,3 +128,23 @@ def test_turn_speed_lowers_the_credited_speed_as_the_episode_turns_harder():
     for bad in ({"command": 0.4, "turn_speed": 0.2}, {"command": 0.4, "speed": 0.1, "turn_speed": 0.2}):
         with pytest.raises(ValueError, match="turn_speed"):
             Perturbations(**bad)
+
+
+def test_worst_scores_a_controller_by_the_mean_of_its_worst_episodes():
+    """``worst=K``: the fitness is the mean of the K lowest of a controller's episodes; the other metrics stay the
+    means of all of them; 0 (the default, left out of the run file's record) is the mean of all."""
+    from cpgjax.optim.factory import METRICS, replica_scores
+
+    fit = jnp.asarray([0.4, 0.1, 0.3, 0.2, 0.5, 0.5, -0.1, 0.9])     # two controllers of four episodes each
+    r = {k: jnp.zeros(8) for k in METRICS} | {"fitness": fit, "diverged": jnp.zeros(8, bool),
+                                               "speed": jnp.arange(8.0)}
+    got = {w: replica_scores(r, Perturbations(replicas=4, worst=w), 2) for w in (0, 1, 2, 4)}
+    np.testing.assert_allclose(got[0]["fitness"], [0.25, 0.45], rtol=1e-6)
+    np.testing.assert_allclose(got[1]["fitness"], [0.1, -0.1], rtol=1e-6)
+    np.testing.assert_allclose(got[2]["fitness"], [0.15, 0.2], rtol=1e-6)
+    np.testing.assert_allclose(got[4]["fitness"], got[0]["fitness"], rtol=1e-6)
+    for w in (1, 2):
+        np.testing.assert_array_equal(got[w]["speed"], [1.5, 5.5])
+    assert "worst" not in Perturbations().to_dict() and Perturbations(worst=2).to_dict()["worst"] == 2
+    with pytest.raises(ValueError, match="worst"):
+        Perturbations(replicas=4, worst=5)
