@@ -39,6 +39,10 @@ def register(subparsers: Any) -> None:
     a.add_argument("--friction-spring", type=o.positive, nargs=2, metavar=("K", "B"),
                    help="our feet's friction bristle, spring [N/m] and damper [N s/m] (default: the model's "
                         "FrictionSpring, 1e3 300 for models/quadruped.wl); our side only")
+    a.add_argument("--mujoco-stiffness", type=o.positive, default=None, metavar="SCALE",
+                   help="MuJoCo's contact stiffness and damping (its solref) scaled by this (default: as exported, "
+                        "1); e.g. 4 sinks MuJoCo's walking feet about as deep as ours (docs/results/walker.md); "
+                        "MuJoCo's side only")
     a.add_argument("--out", default=None, metavar="DIR",
                    help="write agreement.md, agreement.json and agreement.png (speed, slip and landings "
                         "here against MuJoCo C, one point per gait) here")
@@ -62,13 +66,18 @@ def cmd_agreement(args: argparse.Namespace) -> int:
     ours = None
     if args.friction_spring:
         ours = {"friction_k": float(args.friction_spring[0]), "friction_b": float(args.friction_spring[1])}
-    with tqdm(total=len(files) * args.per_run, desc="agreement", unit="gait", disable=args.json) as bar:
+    from cpgjax.crosscheck.mjcf import contact_stiffness
+
+    with tqdm(total=len(files) * args.per_run, desc="agreement", unit="gait", disable=args.json) as bar, \
+            contact_stiffness(args.mujoco_stiffness):
         gaits = agreement.compare_runs(files, terrain=args.terrain, mujoco_dt=args.mujoco_dt, per_run=args.per_run,
                                        pipeline=args.pipeline, time=args.time, ours=ours, replays=args.replays,
                                        progress=lambda _: bar.update())
     summary = agreement.summary(gaits) | {"terrain": args.terrain, "mujoco_dt": args.mujoco_dt}
     if ours:
         summary["friction_spring"] = list(args.friction_spring)
+    if args.mujoco_stiffness is not None:
+        summary["mujoco_stiffness"] = args.mujoco_stiffness
     text = agreement.table(gaits)
     if args.out:
         os.makedirs(args.out, exist_ok=True)

@@ -30,6 +30,8 @@ sphere a point foot at the vertex (docs/crosscheck.md, *Rough ground*).
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -65,6 +67,26 @@ def contact_mass(model, tol: float = 1e-3) -> float:
     return m / max(int(np.sum(z <= z.min() + tol)), 1)
 
 
+_STIFFNESS: contextvars.ContextVar[float] = contextvars.ContextVar("mujoco_stiffness", default=1.0)
+
+
+@contextlib.contextmanager
+def contact_stiffness(scale: float | None):
+    """Within this block every export scales MuJoCo's contact ``solref`` (stiffness and damping alike) by ``scale``
+    (None or 1: as :func:`contact_solref` derives it): a ground as stiff as ours in MuJoCo's feet's depth, to see
+    whether the depth decides a verdict (``cpgjax agreement --mujoco-stiffness``; docs/results/walker.md)."""
+    if scale is None:
+        yield
+        return
+    if not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"MuJoCo's contact stiffness scale must be a number > 0, got {scale}")
+    token = _STIFFNESS.set(float(scale))
+    try:
+        yield
+    finally:
+        _STIFFNESS.reset(token)
+
+
 def contact_solref(model) -> str:
     """MuJoCo's direct ``solref = "-k -b"`` for eq. 3.7's ground ``f = A d - B v``.
 
@@ -78,7 +100,7 @@ def contact_solref(model) -> str:
     alone: the standing quadruped's feet sink 4.1x deeper than eq. 3.7 says (docs/results/engine-agreement.md,
     *MuJoCo's ground at rest*).
     """
-    mc = contact_mass(model)
+    mc = contact_mass(model) / _STIFFNESS.get()
     return f"{-model.ground_A / mc:.6g} {-model.ground_B / mc:.6g}"
 
 
