@@ -121,11 +121,21 @@ def perturbations(run: Run, episodes: int, overrides=()) -> Perturbations:
 
 
 @functools.lru_cache(maxsize=8)
+def _program(text: str, path: str, terrain, delta: float, p: Perturbations, pipeline: str = "springs",
+             family: Family | None = None):
+    """The model and one jitted robust evaluation per model and validation, whatever the episode's length (its
+    length is an argument: a sweep's runs share one compilation, however long their episodes)."""
+    model = build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline)
+    return model, jax.jit(robust_problem(path, model, p, T=float(model.time_max), delta=delta,
+                                         family=family).evaluate)
+
+
 def _scorer(text: str, path: str, terrain, T: float, delta: float, p: Perturbations, pipeline: str = "springs",
             family: Family | None = None):
-    """One jitted robust evaluation per model and validation (a sweep's runs share one compilation)."""
-    model = build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline)
-    return jax.jit(robust_problem(path, model, p, T=T, delta=delta, family=family).evaluate)
+    """``score(genomes, keys)``: the validation's robust evaluation of episodes of ``T`` s (:func:`_program`'s)."""
+    model, fn = _program(text, path, terrain, delta, p, pipeline, family)
+    length = robust_problem(path, model, p, T=T, delta=delta, family=family).length
+    return lambda genomes, keys: fn(genomes, keys, length)
 
 
 def validate(run: Run, v: Validation = Validation(), pipeline: str | None = None) -> Champion:

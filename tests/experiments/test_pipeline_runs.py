@@ -98,7 +98,7 @@ def test_a_runs_model_is_rebuilt_on_the_pipeline_it_recorded(run_path, tmp_path,
         raise Built(model.pipeline)
 
     monkeypatch.setattr(validate, "robust_problem", built)
-    validate._scorer.cache_clear()
+    validate._program.cache_clear()
     for run, want in ((exact, "exact"), (springs, "springs")):
         with pytest.raises(Built, match=want):
             validate.validate(run, validate.Validation(candidates=2, episodes=1))

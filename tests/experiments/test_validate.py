@@ -85,6 +85,21 @@ def test_the_champion_is_the_best_mean_over_common_episodes_and_reproducible(run
     same = np.repeat(genomes[:1], SMALL.candidates, axis=0)
     s = np.asarray(score(jnp.asarray(same), jnp.repeat(key[None], SMALL.candidates, axis=0))["fitness"])
     assert np.all(s == ch.scores[0])
+    # the episode's length is data: a shorter validation scores otherwise through the same compiled program
+    traced = []
+
+    def listen(event, _, **kw):        # a new program is traced (whether or not the disk cache then serves it)
+        if "jaxpr_trace" in event:
+            traced.append(event)
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        half = V._scorer(str(run.meta["model_text"]), str(run.meta["model_path"]), None, TINY_TIME / 2, 8.0,
+                         V.perturbations(run, SMALL.episodes))
+        h = np.asarray(half(jnp.asarray(same), jnp.repeat(key[None], SMALL.candidates, axis=0))["fitness"])
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert not np.array_equal(h, s) and traced == []
 
 
 def test_best_validate_writes_the_champion_as_a_ctl(runs, tmp_path, capsys):
