@@ -100,8 +100,8 @@ def contact_solref(model) -> str:
     alone: the standing quadruped's feet sink 4.1x deeper than eq. 3.7 says (docs/results/engine-agreement.md,
     *MuJoCo's ground at rest*).
     """
-    mc = contact_mass(model) / _STIFFNESS.get()
-    return f"{-model.ground_A / mc:.6g} {-model.ground_B / mc:.6g}"
+    mc, scale = contact_mass(model), _STIFFNESS.get()        # scale: contact_stiffness's, 1 as exported
+    return f"{-model.ground_A * scale / mc:.6g} {-model.ground_B * scale / mc:.6g}"
 
 
 def hfield_grid(terrain, sub: int | None = None):

@@ -107,9 +107,10 @@ def candidates(run: Run, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def perturbations(run: Run, episodes: int, overrides=()) -> Perturbations:
     """The validation episodes of a run: its own robust evaluation (or :data:`THESIS_RUNS`), ``episodes`` replicas,
-    with the ranges ``overrides`` (``(key, value)`` pairs, ``preset=NAME`` among them) in place of the run's."""
+    with the ranges ``overrides`` (``(key, value)`` pairs, ``preset=NAME`` among them) in place of the run's.  The
+    score is their mean: a run's ``worst`` (its evolution's score by its worst episodes) is not carried over."""
     stored = run.meta.get("perturbations") if str(run.meta.get("evaluation", "thesis")) == "robust" else None
-    ranges = dict(stored) if stored else dict(THESIS_RUNS)
+    ranges = {k: v for k, v in stored.items() if k != "worst"} if stored else dict(THESIS_RUNS)
     extra = dict(overrides)
     if "preset" in extra:
         from cpgjax.episode.perturb import PRESETS

@@ -49,6 +49,11 @@ def test_the_validation_episodes_are_the_runs_own_or_the_recommended_ones(runs):
     assert thesis.bristle == V.THESIS_RUNS["bristle"]
     with pytest.raises(ValueError, match="episodes must be >= 1"):
         V.Validation(episodes=0)
+    # a run scored by its worst episodes (--perturb worst=K) is validated by the mean, whatever its K
+    run = read_run(runs / "robust.h5")
+    run.meta["perturbations"] = dict(run.meta["perturbations"], replicas=4, worst=4)
+    assert V.perturbations(run, 2).worst == 0
+    assert V.perturbations(run, 8, (("worst", 2),)).worst == 2       # unless the validation asks for it
 
 
 def test_stricter_validation_ranges_replace_the_runs_own(runs):
