@@ -216,6 +216,7 @@ def varied_run(model, time: float, **fields):
     import jax
     import jax.numpy as jnp
 
+    from cpgjax.episode.probes import Record
     from cpgjax.episode.rollout import rollout
     from cpgjax.sim.variation import Variation
 
@@ -225,7 +226,8 @@ def varied_run(model, time: float, **fields):
     scales = {"stiffness": np.ones(B), "damping": np.ones(B), **fields}
     var = var._replace(**{k: f32(v)[None] if k == "mass" else f32(v) for k, v in scales.items()})
     coeffs = jnp.zeros((model.n_ctrl, model.n_coeff, B))
-    return jax.tree.map(np.asarray, jax.jit(lambda v: rollout(model, coeffs, time=time, var=v, record=True))(var))
+    run = jax.jit(lambda v: rollout(model, coeffs, time=time, var=v, probes=(Record(),)))
+    return jax.tree.map(np.asarray, run(var))
 
 
 # Seven 10 kg boxes (10 cm cubes) on flat ground for 2 s, recorded at 200 Hz: resting from 5 cm (their bottom

@@ -102,11 +102,12 @@ def watch_ours(model, controller, time: float, sample: float = SAMPLE) -> tuple[
     import jax
     import jax.numpy as jnp
 
+    from cpgjax.episode.probes import Record
     from cpgjax.episode.rollout import rollout
     from cpgjax.sim.terrain import height_and_normal
 
     c = jax.tree.map(lambda a: jnp.moveaxis(jnp.asarray(a), 0, -1), controller)
-    out = jax.jit(lambda cc: rollout(model, cc, time=time, record=True, log_rate=1.0 / sample))(c)
+    out = jax.jit(lambda cc: rollout(model, cc, time=time, probes=(Record(),), log_rate=1.0 / sample))(c)
     out = jax.tree.map(np.asarray, out)
     x, q = out["traj"]["x"], out["traj"]["q"]                       # [S, 3, nb, B], [S, 4, nb, B]
     feet = legs(model)[1]                                           # [L, nc]

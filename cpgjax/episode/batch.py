@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.episode.policy import batch_size, is_closed
+from cpgjax.episode.probes import Record
 from cpgjax.episode.rollout import episode_length, rollout
 from cpgjax.episode.steering import Schedule
 
@@ -103,7 +104,8 @@ def evaluate(model, coeffs, *, chunk: int = 256, devices=None, var=None, length=
     padded and split with the robots.  ``length``: the episode's length as data
     (:func:`cpgjax.episode.rollout.episode_length`, traced or not; instead of ``time``), passed to every device:
     one compiled program for every episode length.  Returns the dict of `rollout` (without trajectories), each
-    [..., N] (``[N]`` for the scores; ``[samples, N]`` for the series of ``stability_series=True``).
+    [..., N] (``[N]`` for the scores; ``[samples, N]`` for the series of the probe
+    :class:`~cpgjax.episode.probes.Stability`).
     """
     devs = jax.devices() if devices is None else devices
     N = batch_size(coeffs)
@@ -149,7 +151,7 @@ def simulate(model, coeffs, *, time=None, delta=8.0, record=False, chunk: int = 
         pad = lanes(model, n) - n
         c = jax.tree.map(lambda a: np.concatenate([a, np.repeat(a[-1:], pad, 0)]), c) if pad else c
         f = jax.jit(lambda cc: rollout(model, jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), cc), time=time,
-                                       delta=delta, record=True))
+                                       delta=delta, probes=(Record(),)))
         out = jax.tree.map(np.asarray, f(c))
         out = {k: (v[..., :n] if k != "traj" else {kk: (vv[..., :n] if kk != "t" else vv) for kk, vv in v.items()})
                for k, v in out.items()}

@@ -2,7 +2,8 @@
 
 Beyond the thesis: the behaviour space of a quality-diversity repertoire (Cully et al., *Robots that can
 adapt like animals*, Nature 2015; :mod:`cpgjax.optim.mapelites`).  Two descriptors, both sums carried by
-:func:`cpgjax.episode.rollout.rollout` (``descriptors=True``) from one log sample to the next:
+:func:`cpgjax.episode.rollout.rollout` (the probe :class:`~cpgjax.episode.probes.Descriptors`) from one log
+sample to the next:
 
 - **duty factor of each leg**: the share of the episode's log samples at which the leg's foot touches
   the ground (Cully's descriptor).  A *leg* is a chain of bodies hanging from the tracked body (the

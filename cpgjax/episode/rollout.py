@@ -4,7 +4,8 @@ The scan is nested: an outer loop over log samples (one every 1/LogRate s) and a
 inner scan over the integration steps between two samples.  The inner loop carries
 only the state and two running sums; the outer loop checks for divergence (a robot
 whose state stops being finite or flies off is frozen at its last good sample and
-flagged) and, only when asked, records the trajectory.
+flagged) and updates the probes the caller passed (:mod:`cpgjax.episode.probes`: the trajectory, stability,
+behaviour descriptors, a steering schedule's tracking).
 
 The inner scan's length (steps per log period) depends on the model alone.  The number of log samples is
 either compiled in (``time``: a static scan) or data (``length``, :func:`episode_length`: a ``while`` loop whose
@@ -20,13 +21,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from cpgjax.episode import descriptors as bd
 from cpgjax.episode import policy as pol
+from cpgjax.episode import probes as pb
 from cpgjax.episode import sensors
 from cpgjax.episode import steering as st
 from cpgjax.episode.cpg import targets
 from cpgjax.episode.fitness import stability
-from cpgjax.episode.support import projection_stability
 from cpgjax.sim.contact import terrain_under
 from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.pipeline import step
@@ -83,36 +83,18 @@ def _up_cos(model, q):
 FALL_TILT = math.radians(60.0)
 
 
-def probe(model, s: State, R, p, var, delta):
-    """The two stability measures of one sample (thesis Ch. 6.4): vestibular S(theta) and projection.
-
-    Vestibular: eq. 6.2 on the tracked body's tilt.  Projection (:mod:`cpgjax.episode.support`): the signed
-    distance of the whole robot's CM, projected on the ground, to the support polygon of the contact vertices
-    touching the terrain (depth > 0, the contact law's own test), over the CM's height above the terrain
-    under it; NaN with fewer than three vertices down.  Returns (S, projection, vertices down), each [B].
-    """
-    m = jnp.asarray(model.mass, s.x.dtype)[:, None]
-    if var is not None:
-        m = m * var.mass
-    cm = jnp.sum(m * s.x, axis=1) / jnp.sum(m, axis=0)            # [3, B]
-    cp = p[:, model.ct_pt]                                         # [3, nc, B]
-    if model.terrain.flat:
-        zc, zcm = jnp.zeros_like(cp[2]), jnp.zeros_like(cm[2])
-    else:
-        zc, _ = terrain_under(model, cp[0], cp[1], var)
-        zcm, _ = terrain_under(model, cm[0], cm[1], var)
-    proj, n_down = projection_stability(cp[0], cp[1], zc - cp[2] > 0, (cm[0], cm[1], cm[2] - zcm))
-    return stability(_up_cos(model, s.q), delta), proj, n_down
-
-
-def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None, forward=1, var=None,
-            fall_ends=False, stability_series=False, descriptors=False, latency=0, noise=0.0, length=None):
+def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, forward=1, var=None,
+            fall_ends=False, latency=0, noise=0.0, length=None):
     """Run B robots with CPG coefficients [n_ctrl, 2K+1, B]; returns a dict of [B] arrays.
 
     The episode lasts ``time`` s (None: the model's TimeMax), compiled in, or ``length`` (:func:`episode_length`,
     instead of ``time``; traced or not), whose number of log samples is the trip count of a ``while`` loop: one
-    program for every length, the same bits.  ``record`` and ``stability_series`` return per-sample arrays, whose
-    shape needs the length compiled in: they take ``time`` only.
+    program for every length, the same bits.
+
+    ``probes`` (:mod:`cpgjax.episode.probes`): what the scan measures beside the keys below, each probe's results
+    added to them: :class:`~cpgjax.episode.probes.Record` the trajectory, ``Stability`` thesis Ch. 6.4's measures
+    at every sample, ``Descriptors`` the repertoire's behaviour descriptors.  A probe with per-sample arrays
+    (``Record``, ``Stability``) needs the length compiled in: ``time``, not ``length``.
 
     ``coeffs`` may instead be a batch-last :class:`~cpgjax.episode.policy.ClosedLoop` (the CPG modulated by a
     policy that reads the robot's sensors every step, :mod:`cpgjax.episode.policy`); its CPG phase offset is
@@ -129,26 +111,19 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
     once its body has tilted past ``FALL_TILT`` (the episode's fitness ends at the fall; it is still
     divided by the whole episode's length); ``down`` says which robots fell so (always False without it)
     and ``up`` the share of the episode before the fall (1 without one).
-    With ``record=True`` also ``traj``: x, q [S, ., nb, B], angle, target [S, n, B], t [S], with
+    ``Record``'s ``traj``: x, q [S, ., nb, B], angle, target [S, n, B], t [S], with
     S = samples + 1: t = 0, 1/LogRate, ..., T; for a closed loop also the last step's ``obs`` [S, in, B] (the
     observation it read), its action ``offsets`` [S, n_ctrl, B], ``frequency`` and ``amplitude`` [S, B] and the
     phase offset ``phase`` [S, B] (at t = 0: the first step's).
-    With ``stability_series=True`` (thesis Ch. 6.4, :func:`probe`) also, computed in the scan at every
-    log sample: ``S`` and ``proj`` [samples, B] (vestibular and projection stability, NaN where the
-    latter is undefined), ``S_mean``, ``proj_mean`` (over the defined samples; NaN if none), ``proj_min``
-    and ``proj_undefined`` (the number of samples with fewer than three vertices down).
-    With ``descriptors=True`` (:mod:`cpgjax.episode.descriptors`, accumulated at every log sample) also
-    ``duty`` [legs, B] (each leg's duty factor), ``heading_speed`` and ``turn`` [B] (forward speed along the
-    heading, m/s, and turning rate, rad/s).
     A closed loop whose ``steer`` is set (:mod:`cpgjax.episode.steering`) reads a command computed in the scan every
     step (recorded as ``command`` [S, B], and for a ``Course`` the next waypoint's index ``waypoint`` [S, B]); under a
-    ``Schedule`` the results add ``heading_fitness`` and ``turn_error`` [B] (the tracking sums, stopped at a fall as
-    the fitness is).
+    ``Schedule`` the rollout adds the probe :class:`~cpgjax.episode.probes.Tracking` (``heading_fitness`` and
+    ``turn_error`` [B]).
     """
     closed = pol.is_closed(coeffs)
     policy = coeffs if closed else None
     steer = policy.steer if closed else None
-    schedule_ = isinstance(steer, st.Schedule)
+    probes = tuple(probes) + ((pb.Tracking(),) if isinstance(steer, st.Schedule) else ())
     if closed:
         coeffs = policy.coeffs
         if noise and policy.key is None:
@@ -157,9 +132,10 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         inner, outer = schedule(model, time, log_rate)
         T = inner * outer * model.dt
     else:
-        if time is not None or record or stability_series:
-            raise ValueError("an episode length as data (length=) takes no time=, record= or stability_series=")
-        if schedule_:    # its switch and the tracking sums' divisors are data too (steering.switch_length)
+        if time is not None or any(pr.series for pr in probes):
+            raise ValueError("an episode length as data (length=) takes no time= and no probe with per-sample "
+                             "arrays (Record, Stability)")
+        if isinstance(steer, st.Schedule):   # its switch and the tracking sums' divisors: data (steering.switch_length)
             if steer.switch is not None or "switch" not in length:
                 raise ValueError("with length=, a steering Schedule's switch is the length's (switch=None, "
                                  "steering.switch_length)")
@@ -221,6 +197,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             acc, cl = acc
         else:
             cl = None
+        acc, pacc_prev = acc
         prev = acc
         zero = jnp.zeros((B,), coeffs.dtype)
         (s_new, fit, cl_new), _ = jax.lax.scan(inner_body, (s, zero, cl), None, length=inner)
@@ -250,25 +227,13 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
             "pivot_err": jnp.maximum(acc["pivot_err"], jnp.where(ok, piv, 0.0)),
             "depth": jnp.maximum(acc["depth"], jnp.where(ok, depth, 0.0)),
         }
-        out = sample(s_new, R, cl_new) if record else None
-        if stability_series:
-            S_t, proj_t, _ = probe(model, s_new, R, p, var, delta)
-            defined = jnp.isfinite(proj_t)
-            acc.update(S=prev["S"] + S_t, proj=prev["proj"] + jnp.where(defined, proj_t, 0.0),
-                       proj_n=prev["proj_n"] + defined,
-                       proj_min=jnp.minimum(prev["proj_min"], jnp.where(defined, proj_t, jnp.inf)))
-            out = (out, {"S": S_t, "proj": proj_t})
-        if schedule_:   # the tracking sums (:mod:`cpgjax.episode.steering`)
-            psi, xy = st.heading_of(model, s_new)
-            second = sim_time(model, s_new) > steer.switch
-            acc["track"] = st.track_update(prev["track"], psi, xy, stability(cosu, delta), second, ok & ~prev["down"])
-        if descriptors:
-            if model.terrain.flat:
-                touching = p[2, model.ct_pt] < 0
-            else:
-                touching = zg - p[2, model.ct_pt] > 0
-            acc["bd"] = bd.update(prev["bd"], feet, touching, bd.heading(model, R), s_new.x[:2, model.track])
-        return (s_new, (acc, cl_new) if closed else acc), out
+        smp = pb.Sample(s_new, R, p, None if model.terrain.flat else zg, cosu, ok, prev["down"], cl_new)
+        paccs, outs = [], []
+        for pr, pacc in zip(probes, pacc_prev, strict=True):
+            pacc, o = pr.update(ep, pacc, smp)
+            paccs.append(pacc)
+            outs.append(o)
+        return (s_new, ((acc, tuple(paccs)), cl_new) if closed else (acc, tuple(paccs))), tuple(outs)
 
     def sample(s, R, cl=None):
         angle, _, _ = joint_angles(model, R, s.w)
@@ -293,25 +258,24 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         if latency:   # the first step has no step before: it uses the initial state's observation
             _, _, cl0 = closed_ctrl(s0, cl0)
 
+    else:
+        cl0 = None
+    ep = pb.Episode(model, s0, var, delta, steer, sample, cl0, outer, per_sample, per_second,
+                    T if length is None else None, length)
+
     z = jnp.zeros((B,), coeffs.dtype)
     acc0 = {"fit": z, "tilt": z, "height": z, "fallen": z < 0, "diverged": z < 0, "pivot_err": z, "depth": z,
             "down": z < 0, "up": z}
-    if stability_series:
-        acc0.update(S=z, proj=z, proj_n=jnp.zeros((B,), jnp.int32), proj_min=z + jnp.inf)
-    if schedule_:
-        acc0["track"] = st.track_init(*st.heading_of(model, s0))
-    if descriptors:
-        feet = bd.legs(model)[1]
-        acc0["bd"] = bd.init(model, s0.x, quat_to_mat(s0.q), feet.shape[0])
+    acc0 = (acc0, tuple(pr.init(ep) for pr in probes))
     carry0 = (s0, (acc0, cl0) if closed else acc0)
     if length is None:
-        (s_end, acc), traj = jax.lax.scan(outer_body, carry0, None, length=outer)
+        (s_end, acc), series = jax.lax.scan(outer_body, carry0, None, length=outer)
     else:   # the samples' count as data: a while loop (a scan where it is concrete), the same body
         s_end, acc = jax.lax.fori_loop(0, outer, lambda i, c: outer_body(c, None)[0], carry0)
+        series = (None,) * len(probes)
     if closed:
         acc, _ = acc
-    if stability_series:
-        traj, series = traj
+    acc, paccs = acc
     dist = s_end.x[fwd, model.track] - s0.x[fwd, model.track]
     fitness = per_second(acc["fit"] * dt)
     res = {
@@ -327,21 +291,6 @@ def rollout(model, coeffs, *, time=None, delta=8.0, record=False, log_rate=None,
         "pivot_err": acc["pivot_err"],
         "depth": acc["depth"],
     }
-    if stability_series:
-        n = acc["proj_n"]
-        res.update(S=series["S"], proj=series["proj"], S_mean=acc["S"] / outer,
-                   proj_mean=jnp.where(n > 0, acc["proj"] / jnp.maximum(n, 1), jnp.nan),
-                   proj_min=jnp.where(n > 0, acc["proj_min"], jnp.nan), proj_undefined=outer - n)
-    if schedule_:
-        if length is None:
-            hf, err = st.track_finish(acc["track"], T, steer.switch, steer.first, steer.second)
-        else:
-            hf, err = st.track_finish(acc["track"], None, None, steer.first, steer.second, length)
-        res.update(heading_fitness=jnp.where(acc["diverged"] | ~jnp.isfinite(hf), 0.0, hf), turn_error=err)
-    if descriptors:
-        d = bd.finish(acc["bd"], per_sample, per_second)
-        res.update(duty=d["duty"], heading_speed=d["speed"], turn=d["turn"])
-    if record:   # the first sample is the initial state, at t = 0
-        first = sample(s0, quat_to_mat(s0.q), cl0 if closed else None)
-        res["traj"] = jax.tree.map(lambda a0, a: jnp.concatenate([a0[None], a]), first, traj)
+    for pr, pacc, ser in zip(probes, paccs, series, strict=True):
+        res.update(pr.finish(ep, pacc, ser, acc))
     return res

@@ -30,6 +30,7 @@ from cpgjax.episode.batch import LANES, evaluate, simulate
 from cpgjax.episode.courses import Condition, conditions, course, placement
 from cpgjax.episode.fitness import DEFAULT_DELTA, stability
 from cpgjax.episode.policy import batch_size, family_from_meta, from_genomes, is_closed, table_fields
+from cpgjax.episode.probes import Stability
 from cpgjax.episode.rollout import FALL_TILT, schedule
 from cpgjax.sim.variation import Variation
 
@@ -118,7 +119,7 @@ def _runner(model, time, delta):
     key = (id(model), time, delta)
     if key not in _JIT:
         _JIT[key] = (model, jax.jit(lambda C, var: evaluate(model, C, var=var, time=time, delta=delta,
-                                                                stability_series=True)))
+                                                                probes=(Stability(),))))
     return _JIT[key][1]
 
 

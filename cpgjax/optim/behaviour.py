@@ -23,6 +23,7 @@ from cpgjax.episode import damage as dmg
 from cpgjax.episode import descriptors as bd
 from cpgjax.episode.batch import evaluate
 from cpgjax.episode.fitness import DEFAULT_DELTA
+from cpgjax.episode.probes import Descriptors
 from cpgjax.episode.rollout import episode_length
 from cpgjax.io.wl import load_wl
 from cpgjax.optim.factory import base_genome
@@ -63,7 +64,7 @@ def behaviour_problem(model_path: str, *, descriptor: str = "duty", time: float 
         g = jnp.asarray(genomes, jnp.float32).reshape(-1, n_ctrl, n_coeff)
         if damages:
             g = g * mask
-        r = evaluate(model, g, length=length, delta=delta, chunk=chunk, descriptors=True, fall_ends=True)
+        r = evaluate(model, g, length=length, delta=delta, chunk=chunk, probes=(Descriptors(),), fall_ends=True)
         out = {k: r[k] for k in ("fitness", "diverged", "distance", "speed", "tilt", "fallen", "down")}
         for i, n in enumerate(leg_names):
             out[f"duty_{n}"] = r["duty"][i]

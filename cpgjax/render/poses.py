@@ -1,7 +1,7 @@
 """What a video draws, frame by frame: the body poses of one episode (:class:`Poses`).
 
 - :func:`record_ours`: our simulator's episode, recorded by :func:`cpgjax.episode.rollout.rollout`
-  with ``record=True`` at the video's frame rate (``log_rate=fps``): the exact poses we simulated,
+  with the probe ``Record`` at the video's frame rate (``log_rate=fps``): the exact poses we simulated,
   one sample per frame, nothing re-simulated or interpolated.  The caption's fitness is the
   episode's as :func:`cpgjax.episode.batch.simulate` scores it (``cpgjax simulate`` prints the same);
   when the frame period divides the episode into the same integration steps, the recorded rollout
@@ -109,6 +109,7 @@ def record_ours(model, coeffs, *, time: float | None = None, fps: float = 30.0, 
 
     from cpgjax.episode.batch import LANES, simulate
     from cpgjax.episode.fitness import DEFAULT_DELTA
+    from cpgjax.episode.probes import Record
     from cpgjax.episode.rollout import rollout, schedule
 
     delta = DEFAULT_DELTA if delta is None else delta
@@ -116,7 +117,7 @@ def record_ours(model, coeffs, *, time: float | None = None, fps: float = 30.0, 
     C = jax.tree.map(lambda a: np.repeat(a[None], LANES, 0), c)   # one whole SIMD vector of robots, as simulate runs it
     T = model.time_max if time is None else float(time)
     f = jax.jit(lambda cc: rollout(model, jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), cc), time=T, delta=delta,
-                                   record=True, log_rate=fps))
+                                   probes=(Record(),), log_rate=fps))
     out = jax.tree.map(lambda a: np.asarray(a), f(C))
     traj = out["traj"]
     pos, quat = frames_from_cm(model, traj["x"][..., 0].astype(float), traj["q"][..., 0].astype(float))

@@ -66,10 +66,11 @@ def test_a_robot_standing_still_has_every_foot_always_down_and_does_not_turn():
     names, feet, bodies = bd.legs(model)
     assert names == ("AR", "AL", "PR", "PL") and feet.sum(1).tolist() == [1, 1, 1, 1]
     assert [[model.body_names[b] for b in leg] for leg in bodies][0] == ["LegUAR", "LegLAR"]
+    from cpgjax.episode.probes import Descriptors
     from cpgjax.episode.rollout import rollout
 
     coeffs = jnp.zeros((model.n_ctrl, model.n_coeff, 16))
-    r = rollout(model, coeffs, time=TINY_TIME, descriptors=True)     # the program of the test below
+    r = rollout(model, coeffs, time=TINY_TIME, probes=(Descriptors(),))     # the program of the test below
     np.testing.assert_array_equal(np.asarray(r["duty"]), 1.0)
     assert np.abs(np.asarray(r["turn"])).max() < 1e-4 and np.abs(np.asarray(r["heading_speed"])).max() < 1e-4
 
@@ -87,13 +88,14 @@ def test_descriptors_do_not_change_the_episode():
     and under XLA_FLAGS=--xla_cpu_max_isa=AVX2 and SSE4_2; 1e-6 allows another compiler's fusion).  Without: the
     suite's tiny episode of 16 robots (episode/test_rollout.py's program)."""
     from cpgjax.episode.batch import simulate
+    from cpgjax.episode.probes import Descriptors
     from cpgjax.episode.rollout import rollout
 
     model = load_model("models/quadruped.wl")
     g = np.random.default_rng(1).uniform(-0.3, 0.3, (16, model.n_ctrl, model.n_coeff)).astype(np.float32)
     c = jnp.moveaxis(jnp.asarray(g), 0, -1)
     a = simulate(model, g, time=TINY_TIME)
-    b = rollout(model, c, time=TINY_TIME, descriptors=True)
+    b = rollout(model, c, time=TINY_TIME, probes=(Descriptors(),))
     for k in ("fitness", "distance", "tilt"):
         np.testing.assert_allclose(np.asarray(a[k]), np.asarray(b[k]), rtol=1e-6, atol=1e-6)
     assert math.isfinite(float(np.asarray(b["turn"]).sum()))

@@ -7,6 +7,7 @@ from runcases import TINY_TIME
 
 from cpgjax.episode import policy as pol
 from cpgjax.episode.batch import evaluate, simulate
+from cpgjax.episode.probes import Record
 from cpgjax.episode.rollout import rollout
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
@@ -89,7 +90,7 @@ def test_latency_delays_the_action_by_exactly_one_step():
     g = np.concatenate([_trots(m, 1).reshape(1, -1), rng.uniform(-0.8, 0.8, (1, fam.n_weights(m)))], 1)
     c = pol.from_genomes(fam, m, np.repeat(g, 16, 0).astype(np.float32))
     c = jax.tree.map(lambda a: np.moveaxis(a, 0, -1), c)
-    r = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, record=True, latency=1))(c)
+    r = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, probes=(Record(),), latency=1))(c)
     tr = jax.tree.map(lambda a: np.asarray(a)[..., 0], r["traj"])
     obs = tr["obs"]                                       # [S, in]: sample k's observation (of step k, t = 0 twice)
     W = np.asarray(c.weights)[..., 0].astype(np.float64)
@@ -113,7 +114,7 @@ def test_the_touch_sensors_read_from_each_controllers_own_threshold_in_the_episo
     g = np.concatenate([_trots(m, 1).reshape(1, -1), np.zeros((1, fam.n_weights(m)))], 1)
     at = np.repeat(np.float32([[-0.1], [0.01], [0.0], [0.0]]), 4, 1)        # [robots, legs]
     c = pol.from_genomes(fam, m, np.repeat(g, 4, 0).astype(np.float32), touch=at)
-    run = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, record=True)["traj"]["obs"])
+    run = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, probes=(Record(),))["traj"]["obs"])
     obs = np.asarray(run(jax.tree.map(lambda a: np.moveaxis(a, 0, -1), c)))[:, :4]       # [S, legs, robots]
     assert (obs[..., 0] == 1).all() and (obs[..., 1] == 0).all()
     assert 0 < obs[..., 2].mean() < 1                                       # the trot lifts its feet in turn

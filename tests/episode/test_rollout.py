@@ -6,6 +6,7 @@ import pytest
 from runcases import TINY_TIME
 
 from cpgjax.episode.batch import simulate
+from cpgjax.episode.probes import Record
 from cpgjax.episode.rollout import episode_length, rollout
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
@@ -87,7 +88,7 @@ def test_one_program_serves_every_episode_length_with_the_bits_of_the_length_com
     for k in short:
         np.testing.assert_array_equal(short[k], recorded[k], err_msg=k)
     with pytest.raises(ValueError, match="length"):
-        rollout(quad, np.zeros((8, 5, 16), np.float32), length=episode_length(quad, 1.0), record=True)
+        rollout(quad, np.zeros((8, 5, 16), np.float32), length=episode_length(quad, 1.0), probes=(Record(),))
 
 
 def test_a_diverging_episode_is_flagged_not_crashed():

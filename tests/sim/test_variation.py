@@ -7,6 +7,7 @@ import pytest
 from simcases import BOXES, SLOPE, SLOPES, block_on_slope, box, boxes, slopes
 
 from cpgjax.episode.batch import evaluate, simulate
+from cpgjax.episode.probes import Record
 from cpgjax.episode.rollout import rollout
 from cpgjax.io.wl import load_model
 from cpgjax.sim.rotation import quat_to_mat
@@ -123,7 +124,7 @@ def test_torque_limit_scale_sets_how_far_a_saturated_servo_swings_an_arm_against
     s = np.array([0.8, 1.0, 1.2], np.float32)
     var = Variation.nominal(m, 3)._replace(torque=jnp.asarray(s[None]))
     coeffs = jnp.zeros((m.n_ctrl, m.n_coeff, 3)).at[:, 0].set(1.4)
-    r = jax.tree.map(np.asarray, jax.jit(lambda v: rollout(m, coeffs, time=1.0, var=v, record=True))(var))
+    r = jax.tree.map(np.asarray, jax.jit(lambda v: rollout(m, coeffs, time=1.0, var=v, probes=(Record(),)))(var))
     swing = np.abs(r["traj"]["angle"][:, 0]).max(0)
     mgd = 0.5 * 9.81 * 0.065
     expected = [brentq(lambda q, t=0.1 * k: mgd * (1 - np.cos(q)) - t * q, 0.1, 1.3) for k in s]
