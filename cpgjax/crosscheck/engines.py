@@ -347,7 +347,7 @@ def _root_dof(model, mj) -> int:
 
 def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_DELTA,
                       timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False, steer=None,
-                      watch=None):
+                      watch=None, control_dt: float | None = None):
     """Roll out N closed-loop controllers (a :class:`~cpgjax.episode.policy.ClosedLoop`, robots first) in MuJoCo C,
     one step at a time: each step the observation is computed from MuJoCo's state (:func:`mujoco_observe`), the
     policy acts on it (numpy, the formulas of :mod:`cpgjax.episode.policy`) and the servo targets go to the position
@@ -357,6 +357,12 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     instead of the controller's constant one; None ends the episode there (qpos [N, step + 1, nq]).  ``watch``:
     ``watch(step, datas)`` after every step (``step`` from 1), to read what qpos does not hold (contacts:
     :mod:`cpgjax.crosscheck.agreement`).
+
+    The controller runs at the robot's control period ``control_dt`` (None: the model's step, at which it runs
+    here): where MuJoCo integrates with a shorter step, the observation, the command and the action are taken
+    every ``round(control_dt / timestep)`` steps and held in between, as our step holds them, so that the
+    controller reads, acts and lags (``latency``: one control period) as here, whatever MuJoCo's step.
+    ``observations`` and ``steer`` are then per control period.
     """
     import mujoco
 
@@ -365,6 +371,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     mj = mj if mj is not None else load(model, timestep=timestep)
     dt = mj.opt.timestep
     nstep = int(round(time / dt))
+    hold = max(1, int(round((model.dt if control_dt is None else control_dt) / dt)))
     fam = controller.family
     C = np.asarray(controller.coeffs, np.float64)                   # [N, n_ctrl, 2K+1]
     W = np.asarray(controller.weights, np.float64)                  # [N, out, in]
@@ -389,30 +396,31 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     w0 = 2 * np.pi * f0
     t0 = _time.perf_counter()
     for s in range(nstep):
-        if steer is not None:
-            cmd = steer(s, datas)
-            if cmd is None:
-                qpos = qpos[:, : s + 1]
-                break
-        tau = s * dt + phase_d                                      # [N]
-        ang = w0 * k * tau[None]                                    # [K, N]
-        sn, cs = np.sin(ang), np.cos(ang)
-        phase = (sn[0], cs[0]) if K else (np.zeros(N), np.zeros(N))
-        obs = mujoco_observe(model, mj, datas, fam.inputs, phase, cmd, leg_of)
-        if record:
-            obs_log.append(obs)
-        used = prev if (latency and prev is not None) else obs
-        prev = obs
-        u = (W * used[:, None, :]).sum(2)                           # [N, out]
-        off = np.clip(u[:, :n], *lim["offsets"])
-        mf = np.clip(u[:, n], *lim["frequency"])
-        ma = np.clip(u[:, n + 1], *lim["amplitude"])
-        osc = np.einsum("nck,kn->nc", C[:, :, 1::2], sn) + np.einsum("nck,kn->nc", C[:, :, 2::2], cs)
-        dosc = np.einsum("nck,kn->nc", C[:, :, 1::2], w0 * k * cs) - np.einsum("nck,kn->nc", C[:, :, 2::2],
-                                                                              w0 * k * sn)
-        q = C[:, :, 0] + (1.0 + ma)[:, None] * osc + off
-        dq = dosc * ((1.0 + mf) * (1.0 + ma))[:, None]
-        u_act = q + ratio[None] * dq
+        if s % hold == 0:    # a control period begins: read, act, and hold the action
+            if steer is not None:
+                cmd = steer(s, datas)
+                if cmd is None:
+                    qpos = qpos[:, : s + 1]
+                    break
+            tau = s * dt + phase_d                                      # [N]
+            ang = w0 * k * tau[None]                                    # [K, N]
+            sn, cs = np.sin(ang), np.cos(ang)
+            phase = (sn[0], cs[0]) if K else (np.zeros(N), np.zeros(N))
+            obs = mujoco_observe(model, mj, datas, fam.inputs, phase, cmd, leg_of)
+            if record:
+                obs_log.append(obs)
+            used = prev if (latency and prev is not None) else obs
+            prev = obs
+            u = (W * used[:, None, :]).sum(2)                           # [N, out]
+            off = np.clip(u[:, :n], *lim["offsets"])
+            mf = np.clip(u[:, n], *lim["frequency"])
+            ma = np.clip(u[:, n + 1], *lim["amplitude"])
+            osc = np.einsum("nck,kn->nc", C[:, :, 1::2], sn) + np.einsum("nck,kn->nc", C[:, :, 2::2], cs)
+            dosc = np.einsum("nck,kn->nc", C[:, :, 1::2], w0 * k * cs) - np.einsum("nck,kn->nc", C[:, :, 2::2],
+                                                                                  w0 * k * sn)
+            q = C[:, :, 0] + (1.0 + ma)[:, None] * osc + off
+            dq = dosc * ((1.0 + mf) * (1.0 + ma))[:, None]
+            u_act = q + ratio[None] * dq
         for i, d in enumerate(datas):
             d.ctrl[:] = u_act[i]
             mujoco.mj_step(mj, d)

@@ -74,3 +74,19 @@ def test_a_policy_of_zeros_walks_in_mujoco_as_the_open_loop_cpg():
     assert q_closed.shape == q_open.shape and obs.shape == (1, 500, 20)
     np.testing.assert_allclose(q_closed, q_open, rtol=0, atol=1e-6)
     assert obs[0, -1, 12:16].sum() >= 1                      # it walks on its feet
+
+
+def test_the_controller_is_held_for_the_robots_control_period_at_a_shorter_mujoco_step():
+    """MuJoCo C at a quarter of the model's 2 ms step: the controller reads and acts every fourth step and holds its
+    action in between, as our step holds it (one observation per 2 ms, the actuators' inputs constant over each)."""
+    m = load_model("models/quadruped.wl", pipeline="exact")
+    c = read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs.astype(np.float32)
+    fam = pol.Family()
+    closed = pol.from_genomes(fam, m, np.concatenate([c.reshape(1, -1), np.zeros((1, fam.n_weights(m)))], 1))
+    seen = []
+    _, q, _, obs = mujoco_closed_run(m, closed, time=0.02, timestep=m.dt / 4, record=True,
+                                     watch=lambda s, ds: seen.append(ds[0].ctrl.copy()))
+    assert q.shape[1] == 41 and obs.shape == (1, 10, 20)
+    u = np.asarray(seen).reshape(10, 4, -1)
+    np.testing.assert_array_equal(u, np.repeat(u[:, :1], 4, 1))
+    assert np.abs(np.diff(u[:, 0], axis=0)).max() > 1e-4      # and it acts anew each period
