@@ -345,6 +345,12 @@ def _root_dof(model, mj) -> int:
     return int(mj.jnt_dofadr[mj.body_jntadr[bid]])
 
 
+def control_hold(model, timestep: float, control_dt: float | None = None) -> int:
+    """MuJoCo's steps per control period: ``round(control_dt / timestep)``, at least 1 (``control_dt`` None: the
+    model's step, the robot's control period here)."""
+    return max(1, int(round((model.dt if control_dt is None else control_dt) / timestep)))
+
+
 def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_DELTA,
                       timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False, steer=None,
                       watch=None, control_dt: float | None = None):
@@ -371,7 +377,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     mj = mj if mj is not None else load(model, timestep=timestep)
     dt = mj.opt.timestep
     nstep = int(round(time / dt))
-    hold = max(1, int(round((model.dt if control_dt is None else control_dt) / dt)))
+    hold = control_hold(model, dt, control_dt)
     fam = controller.family
     C = np.asarray(controller.coeffs, np.float64)                   # [N, n_ctrl, 2K+1]
     W = np.asarray(controller.weights, np.float64)                  # [N, out, in]

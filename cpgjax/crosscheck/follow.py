@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import mujoco_closed_run, root_slice
+from cpgjax.crosscheck.engines import control_hold, mujoco_closed_run, root_slice
 from cpgjax.crosscheck.mjcf import initial_qpos, load
 from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.episode.steering import GAIN, REACH
@@ -80,14 +80,16 @@ def walk(model, controller, paths: list[np.ndarray], *, time: float, gain: float
     settled = np.zeros(len(paths), bool)
     cos_fall = math.cos(FALL_TILT)
 
+    hold = control_hold(model, dt)    # called every control period (engines.mujoco_closed_run): every hold steps
+
     def steer(s, datas):
         psi, xy, up = pose(model, mj, np.stack([d.qpos for d in datas]))
-        if s and s % inner == 0:      # a log sample: the walk ends when every robot has finished or fallen
-            settled[:] |= (fol.k >= fol.count) | (up < cos_fall)
+        if s and s // inner > (s - hold) // inner:    # the first period at or after a log sample: the walk ends
+            settled[:] |= (fol.k >= fol.count) | (up < cos_fall)      # when every robot has finished or fallen
             if settled.all():
                 return None
         c = fol.command(psi, xy)
-        if (s + 1) % inner == 0:      # the last step before a log sample: the sample's waypoint and command
+        if (s + hold) // inner > s // inner:    # the period holding the last step before a log sample: its command
             ks.append(fol.k.copy())
             cs.append(c)
         return c

@@ -134,3 +134,19 @@ def test_the_walk_ends_at_the_first_sample_at_which_every_robot_has_finished(qua
     assert r["t"].tolist() == pytest.approx([0.0, 1.0 / m.log_rate]) and r["xy"].shape == (1, 2, 2)
     w, end = measure(r["t"], r["waypoint"][0], r["up"][0], r["xy"][0], r["command"][0], np.asarray([[0.0, 0.1]]))
     assert end == 0 and w["finished"] and w["time"] == 0.0 and w["reached"] == 1 and w["command_mean_abs"] == 0.0
+
+
+def test_at_a_shorter_mujoco_step_the_walk_samples_and_ends_as_at_ours(quad):
+    """MuJoCo C at a quarter of the model's step: the command is set once per control period (2 ms, held over four
+    steps); the walk still logs one sample per 1/LogRate with the command of the period holding its last step (the
+    law on the pose at most one period before: 2e-3 rad/s), and ends at the first sample after every robot finished."""
+    m, _ = quad
+    paths = [np.asarray([[-1.0, 1.0]]), np.asarray([[1.0, 1.0]])]
+    r = mf.walk(m, _steering_controller(m, 2), paths, time=0.2, gain=0.5, limit=10.0, timestep=m.dt / 4)
+    assert r["t"].shape == (5,) and r["command"].shape == r["waypoint"].shape == (2, 5) and r["xy"].shape == (2, 5, 2)
+    for b, p in enumerate(paths):
+        d = p[0] - r["xy"][b]
+        head = np.arctan2(-d[:, 0], d[:, 1]) - r["psi"][b]
+        np.testing.assert_allclose(r["command"][b], 0.5 * np.arctan2(np.sin(head), np.cos(head)), atol=2e-3)
+    done = mf.walk(m, _steering_controller(m, 1), [np.asarray([[0.0, 0.1]])], time=1.0, timestep=m.dt / 4)
+    assert done["t"].tolist() == pytest.approx([0.0, 1.0 / m.log_rate]) and done["xy"].shape == (1, 2, 2)
