@@ -17,10 +17,12 @@ Per gait and engine, from the same samples (every ``sample`` s, MuJoCo's states 
   first: the first leg to lose the ground.
 
 With ``replays`` > 0 each gait is also replayed that many times jittered (genes moved by N(0, 1e-3^2), the draws of
-``cpgjax transfer``) in each engine, and ``falls`` counts its falls there: one replay's verdict on a marginal gait is
-chaotic, so the verdict compared is then whether it falls in at least half of them.
+``cpgjax transfer``) in each engine, and ``falls`` counts its falls there, ``speed_median`` their median speed: one
+replay's verdict and speed on a marginal gait are chaotic, so the verdict compared is then whether it falls in at
+least half of them.
 
-The summary: the share of gaits on whose fall the engines agree, and the Spearman correlation of their speeds.
+The summary: the share of gaits on whose fall the engines agree, and the Spearman correlation of their speeds (as
+they are, and with replays also of the replays' median speeds).
 """
 
 from __future__ import annotations
@@ -213,8 +215,9 @@ def compare_runs(paths, *, terrain: str, mujoco_dt: float, per_run: int = 6, pip
                 w_mj[i], names, SAMPLE)
             if replays:
                 g.ours["replays"] = g.mujoco["replays"] = replays
-                g.ours["falls"], g.mujoco["falls"] = _jittered_falls(model.replace(**changes) if changes else model,
-                                                                     family, picked[i][1], T, mujoco_dt, replays)
+                (g.ours["falls"], g.ours["speed_median"]), (g.mujoco["falls"], g.mujoco["speed_median"]) = \
+                    _jittered_falls(model.replace(**changes) if changes else model, family, picked[i][1], T,
+                                    mujoco_dt, replays)
             out.append(g)
             if progress is not None:
                 progress(g)
@@ -222,7 +225,8 @@ def compare_runs(paths, *, terrain: str, mujoco_dt: float, per_run: int = 6, pip
 
 
 def _jittered_falls(model, family, genome, time, mujoco_dt, replays):
-    """Falls of ``replays`` jittered copies of one gait here and in MuJoCo C (``cpgjax transfer``'s draws)."""
+    """(falls, median speed) of ``replays`` jittered copies of one gait here, and in MuJoCo C (``cpgjax transfer``'s
+    draws)."""
     from cpgjax.crosscheck.engines import mujoco_run
     from cpgjax.crosscheck.transfer import jittered
     from cpgjax.episode.batch import simulate
@@ -231,7 +235,8 @@ def _jittered_falls(model, family, genome, time, mujoco_dt, replays):
     C = from_genomes(family, model, jittered(genome, replays)[1:])
     here = simulate(model, C, time=time)
     there, _, _ = mujoco_run(model, C, time=time, mj=load(model, timestep=mujoco_dt))
-    return int(np.asarray(here["fallen"]).sum()), int(np.asarray(there["fallen"]).sum())
+    return ((int(np.asarray(here["fallen"]).sum()), float(np.median(np.asarray(here["speed"])))),
+            (int(np.asarray(there["fallen"]).sum()), float(np.median(np.asarray(there["speed"])))))
 
 
 def falls(e: dict) -> bool:
@@ -252,12 +257,16 @@ def summary(gaits: list[Gait]) -> dict:
             "fell_mujoco": int(fm.sum()), "fell_only_mujoco": int((fm & ~fo).sum()),
             "fell_only_ours": int((fo & ~fm).sum()),
             "spearman": spearman([g.ours["speed"] for g in gaits], [g.mujoco["speed"] for g in gaits]),
-            "same_leg_lost": same_leg, "fell_both": int(both.sum())}
+            "same_leg_lost": same_leg, "fell_both": int(both.sum())} | ({
+                "spearman_replays": spearman([g.ours["speed_median"] for g in gaits],
+                                             [g.mujoco["speed_median"] for g in gaits])}
+                if gaits and all("speed_median" in g.ours for g in gaits) else {})
 
 
 def _cells(e: dict) -> list[str]:
     d = e["depth"]
-    falls_ = [f"{e['falls']}"] if e.get("replays") else []
+    falls_ = [f"{e['falls']}", f"{e['speed_median']:.3f}"] if e.get("replays") and "speed_median" in e else (
+        [f"{e['falls']}"] if e.get("replays") else [])
     return [f"{e['speed']:.3f}{' (fell)' if e['fell'] else ''}", *falls_, f"{d[0]:.1f} / {d[1]:.1f} / {d[2]:.1f}",
             f"{100 * e['steep']:.0f} %", f"{e['slip']:.0f}", f"{e['landings']:.1f}", e["lost"]]
 
@@ -265,7 +274,9 @@ def _cells(e: dict) -> list[str]:
 def table(gaits: list[Gait]) -> str:
     """The per-gait markdown table and the summary line under it."""
     n = gaits[0].ours.get("replays", 0) if gaits else 0
-    cols = ["speed [m/s]", *([f"falls of {n}"] if n else []), "feet's depth, median / 99 % / max [mm]",
+    med = bool(n) and all("speed_median" in g.ours for g in gaits)
+    cols = ["speed [m/s]", *([f"falls of {n}"] if n else []), *([f"median speed of {n} [m/s]"] if med else []),
+            "feet's depth, median / 99 % / max [mm]",
             "steep", "slip [mm/s]", "landings per leg [1/s]", "first leg lost"]
     head = ["gait"] + [f"{c} here" for c in cols] + [f"{c} in MuJoCo C" for c in cols]
     align = ["---"] + [("---" if c.startswith(("feet", "first")) else "---:") for c in cols] * 2
@@ -276,7 +287,9 @@ def table(gaits: list[Gait]) -> str:
     line = (f"{s['gaits']} gaits; the verdict: a gait {verdict}.  The engines agree on {agree} of {s['gaits']} "
             f"({100 * s['falls_agree']:.0f} %; it falls here in {s['fell_ours']}, in MuJoCo C in {s['fell_mujoco']}, "
             f"only in MuJoCo C in {s['fell_only_mujoco']}, only here in {s['fell_only_ours']}); Spearman of the speeds "
-            f"{s['spearman']:.2f}; of {s['fell_both']} that fall as they are in both, {s['same_leg_lost']} lose the "
+            f"{s['spearman']:.2f}"
+            + (f" (of the replays' median speeds {s['spearman_replays']:.2f})" if "spearman_replays" in s else "")
+            + f"; of {s['fell_both']} that fall as they are in both, {s['same_leg_lost']} lose the "
             "same leg first")
     return "\n".join(["| " + " | ".join(head) + " |", "|" + "|".join(align) + "|", *rows, "", line])
 

@@ -108,6 +108,23 @@ def test_gaits_are_picked_from_generations_spread_over_the_run_once_each(tiny_ru
         np.testing.assert_array_equal(genome, run.genomes[gen, int(np.nanargmax(v))])
 
 
+def test_with_replays_the_summary_compares_their_median_speeds_too():
+    """Four gaits whose one replay as it is ranks them in reverse in MuJoCo C, and whose replays' medians rank
+    them alike: Spearman -1 as they are, 1 over the medians; each median in the table."""
+    def side(speed, median, falls):
+        return {"fell": False, "speed": speed, "depth": (1.0, 2.0, 3.0), "steep": 0.0, "slip": 10.0,
+                "landings": 1.0, "lost": "—", "replays": 8, "falls": falls, "speed_median": median}
+
+    gaits = [ag.Gait(f"g{i}", side(0.1 * i, 0.1 * i, 0), side(0.5 - 0.1 * i, 0.11 * i, 4 * (i == 3)))
+             for i in range(4)]
+    s = ag.summary(gaits)
+    assert s["spearman"] == pytest.approx(-1.0) and s["spearman_replays"] == pytest.approx(1.0)
+    assert s["falls_agree"] == 0.75 and s["fell_only_mujoco"] == 1
+    text = ag.table(gaits)
+    assert "median speed of 8 [m/s] here" in text and "| 0.330 |" in text
+    assert "Spearman of the speeds -1.00 (of the replays' median speeds 1.00)" in text
+
+
 @pytest.mark.slow    # 15 s: a recording rollout and MuJoCo C, on top of the tiny run
 def test_agreement_writes_its_table_and_summary(tiny_runs, tmp_path, capsys):
     out = tmp_path / "ag"
