@@ -182,7 +182,7 @@ _CACHE: dict = {}
 
 def _jitted_evaluate(model, delta, chunk):
     """``f(coeffs, length)``: :func:`evaluate` jitted, the episode's length (:func:`episode_length`) an argument."""
-    key = (id(model), delta, chunk)
-    if key not in _CACHE or _CACHE[key][0] is not model:
-        _CACHE[key] = (model, jax.jit(lambda c, length: evaluate(model, c, length=length, delta=delta, chunk=chunk)))
-    return _CACHE[key][1]
+    key = (model, delta, chunk)      # the model's structure (sim.fingerprint): a model loaded again shares it
+    if key not in _CACHE:
+        _CACHE[key] = jax.jit(lambda c, length: evaluate(model, c, length=length, delta=delta, chunk=chunk))
+    return _CACHE[key]

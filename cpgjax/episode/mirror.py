@@ -185,10 +185,10 @@ def _mirror(model, family) -> Mirror:
 def mirror(model, family) -> Mirror:
     """The :class:`Mirror` of ``family`` (a closed-loop family with ``mirror``) on ``model`` (made once per model
     and family)."""
-    key = (id(model), family)
-    if key not in _CACHE or _CACHE[key][0] is not model:
-        _CACHE[key] = (model, _mirror(model, family))
-    return _CACHE[key][1]
+    key = (model, family)            # the model's structure (sim.fingerprint)
+    if key not in _CACHE:
+        _CACHE[key] = _mirror(model, family)
+    return _CACHE[key]
 
 
 def expand(mir: Mirror, genomes):

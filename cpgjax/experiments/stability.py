@@ -116,11 +116,10 @@ _JIT: dict = {}
 
 
 def _runner(model, time, delta):
-    key = (id(model), time, delta)
+    key = (model, time, delta)       # the model's structure (sim.fingerprint)
     if key not in _JIT:
-        _JIT[key] = (model, jax.jit(lambda C, var: evaluate(model, C, var=var, time=time, delta=delta,
-                                                                probes=(Stability(),))))
-    return _JIT[key][1]
+        _JIT[key] = jax.jit(lambda C, var: evaluate(model, C, var=var, time=time, delta=delta, probes=(Stability(),)))
+    return _JIT[key]
 
 
 def run_course(model, coeffs: np.ndarray, lane: np.ndarray, conds: list[Condition], flat_distance: np.ndarray,

@@ -20,12 +20,14 @@ exact pipeline takes their middle as the joint's pivot.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from cpgjax.sim.description import Description, DescriptionError, ObjectDef
 from cpgjax.sim.exact.tree import ExactModel, build_exact
+from cpgjax.sim.fingerprint import fingerprint
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat, quat_to_mat_np
 from cpgjax.sim.springs.model import SpringsModel, build_springs
 from cpgjax.sim.terrain import Terrain, make_terrain, start_lift
@@ -50,8 +52,8 @@ REFS = {"X": np.array([0.0, 1.0, 0.0]), "Y": np.array([0.0, 0.0, 1.0]), "Z": np.
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """Frozen arrays of one robot and its world (hashable by identity): the shared part, and the part of its
-    pipeline (``springs`` or ``exact``, the other None)."""
+    """Frozen arrays of one robot and its world (hashed and compared by its structure, :attr:`fingerprint`): the
+    shared part, and the part of its pipeline (``springs`` or ``exact``, the other None)."""
 
     # bodies [nb]
     body_names: tuple[str, ...]
@@ -136,6 +138,18 @@ class Model:
 
     def body_index(self, name: str) -> int:
         return self.body_names.index(name)
+
+    @functools.cached_property
+    def fingerprint(self) -> str:
+        """The structural hash of every field (:mod:`cpgjax.sim.fingerprint`): the model hashes and compares by it,
+        so that compiled programs are cached by the model's structure, not by the object."""
+        return fingerprint(self)
+
+    def __hash__(self) -> int:
+        return hash(self.fingerprint)
+
+    def __eq__(self, other) -> bool:
+        return self is other or (isinstance(other, Model) and self.fingerprint == other.fingerprint)
 
     def replace(self, **changes) -> Model:
         """A new Model with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``, ``pipeline``), its pipeline's
