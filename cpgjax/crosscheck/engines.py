@@ -11,6 +11,8 @@ A closed-loop controller (:mod:`cpgjax.episode.policy`) reads its sensors from M
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import time as _time
 
 import numpy as np
@@ -345,9 +347,27 @@ def _root_dof(model, mj) -> int:
     return int(mj.jnt_dofadr[mj.body_jntadr[bid]])
 
 
+_CONTROL_DT: contextvars.ContextVar[float | None] = contextvars.ContextVar("mujoco_control_dt", default=None)
+
+
+@contextlib.contextmanager
+def control_period(seconds: float | None):
+    """Within this block MuJoCo C runs closed-loop controllers with this control period (None: the model's step, as
+    here; MuJoCo's own step: every step, as before the period was held), for ``cpgjax agreement
+    --mujoco-control-dt`` (docs/results/walker.md)."""
+    if seconds is not None and not (np.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"a control period must be a number of seconds > 0, got {seconds}")
+    token = _CONTROL_DT.set(seconds)
+    try:
+        yield
+    finally:
+        _CONTROL_DT.reset(token)
+
+
 def control_hold(model, timestep: float, control_dt: float | None = None) -> int:
-    """MuJoCo's steps per control period: ``round(control_dt / timestep)``, at least 1 (``control_dt`` None: the
-    model's step, the robot's control period here)."""
+    """MuJoCo's steps per control period: ``round(control_dt / timestep)``, at least 1 (``control_dt`` None: an
+    enclosing :func:`control_period`'s, else the model's step, the robot's control period here)."""
+    control_dt = _CONTROL_DT.get() if control_dt is None else control_dt
     return max(1, int(round((model.dt if control_dt is None else control_dt) / timestep)))
 
 

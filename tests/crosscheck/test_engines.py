@@ -4,8 +4,9 @@ import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
+import pytest
 
-from cpgjax.crosscheck.engines import mujoco_closed_run, mujoco_observe, mujoco_run
+from cpgjax.crosscheck.engines import control_period, mujoco_closed_run, mujoco_observe, mujoco_run
 from cpgjax.crosscheck.mjcf import initial_qpos, load
 from cpgjax.episode import policy as pol
 from cpgjax.episode import sensors
@@ -90,3 +91,10 @@ def test_the_controller_is_held_for_the_robots_control_period_at_a_shorter_mujoc
     u = np.asarray(seen).reshape(10, 4, -1)
     np.testing.assert_array_equal(u, np.repeat(u[:, :1], 4, 1))
     assert np.abs(np.diff(u[:, 0], axis=0)).max() > 1e-4      # and it acts anew each period
+    with control_period(m.dt / 4):          # `agreement --mujoco-control-dt`: every MuJoCo step, as before
+        _, _, _, every = mujoco_closed_run(m, closed, time=0.02, timestep=m.dt / 4, record=True)
+    assert every.shape == (1, 40, 20)
+    np.testing.assert_array_equal(every[:, 0], obs[:, 0])    # the same first reading, at t = 0
+    with pytest.raises(ValueError, match="control period"):
+        with control_period(0.0):
+            pass
