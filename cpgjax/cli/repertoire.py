@@ -200,8 +200,8 @@ def register(subparsers: Any) -> None:
     o.pipeline_option(p, f"{o.CTL_PIPELINE}; --ctl only")
     p.add_argument("--engine", choices=("ours", "mujoco", "both"), default=None,
                    help="--ctl: walk in our simulator (default), in MuJoCo C (the robot: the policy reads MuJoCo's "
-                        "sensors, the command is set every MuJoCo step from MuJoCo's own pose by the same law), or "
-                        "in both, each walk's rows side by side")
+                        "sensors, the command is set every control period (the model's step) from MuJoCo's own "
+                        "pose by the same law), or in both, each walk's rows side by side")
     p.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
                    help="--engine mujoco|both: MuJoCo C's integration step (default: the export's, 2 ms; on rough "
                         "ground use 0.00025, as for transfer: docs/crosscheck.md)")

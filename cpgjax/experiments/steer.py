@@ -14,9 +14,9 @@ distance of the tracked body's CM from the path (the polyline from the origin th
 walk ends (finished, fell, or the episode's end).
 
 ``engine="mujoco"`` walks the same controllers and paths in MuJoCo C instead (the robot, :mod:`cpgjax.crosscheck.
-follow`): the policy reads MuJoCo's sensors and the command is computed every MuJoCo step from MuJoCo's own pose by
-the same law, sampled at the same log rate and measured by the same :func:`measure`; ``engine="both"`` walks each in
-ours, then in MuJoCo.
+follow`): the policy reads MuJoCo's sensors and the command is computed every control period (the model's step) from
+MuJoCo's own pose by the same law, sampled at the same log rate and measured by the same :func:`measure`;
+``engine="both"`` walks each in ours, then in MuJoCo.
 """
 
 from __future__ import annotations
