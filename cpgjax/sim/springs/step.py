@@ -9,6 +9,9 @@ one robot (B = 1) or thousands.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -55,7 +58,29 @@ def sum_contacts_onto_bodies(model, f, r):
     return jnp.stack(F, 1), jnp.stack(T, 1)
 
 
-def forces(model, state, ctrl, var=None):
+class Servos(NamedTuple):
+    """What the servos' derivative term needs of the joints (:func:`servo_derivative`)."""
+
+    rate: jax.Array     # [nj, B] joint rates
+    axis: jax.Array     # [3, nj, B] joint axes in the world
+    tau_pi: jax.Array   # [nctrl, B] the servos' proportional and integral torque
+
+
+class Forces(NamedTuple):
+    """The stage before the ground (:func:`forces`): the bodies' pose, the points, and the force and torque on
+    every body from everything but the ground and the servos' derivative term."""
+
+    R: jax.Array        # [3, 3, nb, B] body rotations
+    r: jax.Array        # [3, npt, B] points relative to their body's CM, in the world
+    p: jax.Array        # [3, npt, B] points in the world
+    pv: jax.Array       # [3, npt, B] their velocities
+    force: jax.Array    # [3, nb, B]
+    torque: jax.Array   # [3, nb, B]
+    err: jax.Array      # [nctrl, B] the servos' error (their integral's rate)
+    servos: Servos
+
+
+def forces(model, state, ctrl, var=None) -> Forces:
     """Force and torque on every body [3, nb, B] from everything but the ground and the servos'
     derivative term, plus what the servos and the contacts need."""
     target, _ = ctrl
@@ -69,10 +94,10 @@ def forces(model, state, ctrl, var=None):
     tau = limit_torques(model, angle, rate).at[model.ctrl_joint].add(tau_pi)
     force = sum_onto_bodies(model, f_pt, None)
     torque = sum_onto_bodies(model, cross(r, f_pt), tau * axis)
-    return R, r, p, pv, force, torque, err, (rate, axis, tau_pi)
+    return Forces(R, r, p, pv, force, torque, err, Servos(rate, axis, tau_pi))
 
 
-def servo_derivative(model, R, ctrl, joints, alpha, var=None):
+def servo_derivative(model, R, ctrl, joints: Servos, alpha, var=None):
     """Angular accelerations [3, nb, B] added by the servos' saturated derivative term (`servo`).
 
     ``alpha``: the bodies' angular accelerations under every other force and torque, from which
@@ -98,9 +123,10 @@ def step(model, state, ctrl, var=None):
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (``None``: the nominal robot).
     """
     scale = None if var is None else var.mass
-    R, r, p, pv, force, torque, err, joints = forces(model, state, ctrl, var)
-    a, alpha = accelerations(model, R, state.w, force, torque, scale)
-    alpha = alpha + servo_derivative(model, R, ctrl, joints, alpha, var)
+    f = forces(model, state, ctrl, var)
+    R, r, p, pv = f.R, f.r, f.p, f.pv
+    a, alpha = accelerations(model, R, state.w, f.force, f.torque, scale)
+    alpha = alpha + servo_derivative(model, R, ctrl, f.servos, alpha, var)
     # On uneven terrain the contact frame under each vertex (looked up in the heightfield) and the contact forces
     # are computed once into memory (`sim/tricks.py: keep`): XLA's CPU fusion otherwise recomputed the frame for
     # every component and every body sum that reads it, in scalar code (the car on its ramp: 5x the CPU per
@@ -112,4 +138,4 @@ def step(model, state, ctrl, var=None):
         fc = keep(fc)
     ac, alc = force_accelerations(model, R, *sum_contacts_onto_bodies(model, fc, r[:, model.ct_pt]), scale)
     new = integrate(state, a + ac, alpha + alc, model.dt)
-    return new._replace(e_int=state.e_int + model.dt * err, anchor=anchor, f_n=f_n, n=state.n + 1)
+    return new._replace(e_int=state.e_int + model.dt * f.err, anchor=anchor, f_n=f_n, n=state.n + 1)
