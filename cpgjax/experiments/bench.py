@@ -195,7 +195,6 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
     import jax
 
     from cpgjax.io.wl import load_model
-    from cpgjax.sim import rotation
 
     model = load_model(model_path, pipeline=pipeline)
     print(f"machine: {machine()}")
@@ -226,13 +225,8 @@ def run_bench(model_path: str, batches=DEFAULT_BATCHES, time_s: float = 2.0, chu
 
         rough = model.replace(terrain=make_terrain("rough:0.02"))
         trows.append(row(rough, b, time_s, label="heightfield (rough:0.02)", chunk=chunk))
-        default = rotation.POLY_ATAN2
-        rotation.POLY_ATAN2 = not default
-        try:
-            trows.append(row(model, b, time_s, chunk=chunk,
-                             label="library atan2" if default else "polynomial atan2"))
-        finally:
-            rotation.POLY_ATAN2 = default
+        trows.append(row(model.replace(poly_atan2=not model.poly_atan2), b, time_s, chunk=chunk,
+                         label="library atan2" if model.poly_atan2 else "polynomial atan2"))
         if model.exact is not None:         # the exact pipeline's stages computed once into memory, or not
             plain = model.replace(exact=dataclasses.replace(model.exact, materialize=False))
             trows.append(row(plain, b, time_s, chunk=chunk, label="no materialized stages"))

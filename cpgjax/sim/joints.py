@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from cpgjax.sim.rotation import atan2, cross, dot, matvec
+from cpgjax.sim.rotation import cross, dot, matvec
+from cpgjax.sim.tricks import poly_atan2
 
 
 def joint_angles(model, R, w):
@@ -20,7 +21,7 @@ def joint_angles(model, R, w):
     axis = matvec(Ra, model.j_axis[:, :, None])
     ua = matvec(Ra, model.j_ref[:, :, None])
     ub = matvec(Rb, model.j_ref[:, :, None])
-    angle = atan2(dot(cross(ua, ub), axis), dot(ua, ub))
+    angle = (poly_atan2 if model.poly_atan2 else jnp.arctan2)(dot(cross(ua, ub), axis), dot(ua, ub))
     rate = dot(w[:, model.j_b] - w[:, model.j_a], axis)
     return angle, rate, axis
 

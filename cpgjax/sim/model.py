@@ -108,6 +108,7 @@ class Model:
     description: Description | None = field(default=None, repr=False)
     limit_k: float = LIMIT_STIFFNESS
     limit_c: float = LIMIT_DAMPING
+    poly_atan2: bool = False  # a compiler trick, off (sim.tricks.poly_atan2; `cpgjax bench --tricks` measures it)
     pipeline: str = "springs"  # PIPELINES: which `step` runs it (`cpgjax.sim.pipeline.step` dispatches)
     springs: SpringsModel | None = field(default=None, repr=False)  # the springs pipeline's part
     exact: ExactModel | None = field(default=None, repr=False)  # the exact pipeline's part: its tree

@@ -64,32 +64,6 @@ def quat_integrate(q, omega, dt):
     return q * jnp.reciprocal(jnp.sqrt(q[0] ** 2 + q[1] ** 2 + q[2] ** 2 + q[3] ** 2))
 
 
-POLY_ATAN2 = False  # read at trace time; `cpgjax bench --tricks` flips it to measure the difference
-
-
-def atan2(y, x):
-    """Polynomial atan2, max error about 1e-5 rad.
-
-    Why it exists: a prototype found the library atan2 slow inside XLA's fused CPU loops
-    and this minimax polynomial faster.  On the pinned versions it buys nothing (`cpgjax bench --tricks`;
-    docs/results/performance.md, *Where the step's time goes*), so it is off by default
-    (``POLY_ATAN2``) and kept for that comparison on other versions.
-    """
-    if not POLY_ATAN2:
-        return jnp.arctan2(y, x)
-    ax, ay = jnp.abs(x), jnp.abs(y)
-    swap = ay > ax
-    num = jnp.where(swap, ax, ay)
-    den = jnp.where(swap, ay, ax)
-    a = num / jnp.where(den == 0, 1.0, den)
-    s = a * a
-    r = ((((-0.0117212 * s + 0.05265332) * s - 0.11643287) * s + 0.19354346) * s - 0.33262347) * s + 0.99997723
-    r = r * a
-    r = jnp.where(swap, np.pi / 2 - r, r)
-    r = jnp.where(x < 0, np.pi - r, r)
-    return jnp.where(y < 0, -r, r)
-
-
 # ----------------------------------------------------------------------------- numpy side (model building)
 
 def euler_to_mat(rx: float, ry: float, rz: float) -> np.ndarray:

@@ -17,6 +17,8 @@ kernels (and so, where a fusion changes, with another rounding in the last bit).
 - :func:`rot_const`, :func:`rot_const_row`, :func:`column`, :func:`mul`: products with constants known when
   the program is traced leave out the terms that are zero (XLA does not fold ``0 * x`` for floats: it would
   change ``0 * inf``).
+- :func:`poly_atan2`: a polynomial ``atan2`` in place of the library's, off (the model's ``poly_atan2``): it
+  bought nothing on the pinned versions and is kept to measure that on others.
 - :func:`add_at`: an indexed add of static rows as adds and a stack, not a scatter (a scatter is a kernel of its
   own that nothing fuses with: the exact step launched 6 kernels fewer at 16 robots, with the same bits).
 """
@@ -168,3 +170,23 @@ def add_at(x, idx, y):
     where[idx] = np.arange(len(idx))
     return jnp.stack([x[k] + y[where[k]] if where[k] >= 0 else x[k] for k in range(x.shape[0])])
 
+
+
+def poly_atan2(y, x):
+    """Polynomial atan2, max error about 1e-5 rad; the joint angles use it where the model's ``poly_atan2`` is set.
+
+    Why it exists: a prototype found the library atan2 slow inside XLA's fused CPU loops and this minimax
+    polynomial faster.  On the pinned versions it buys nothing (``cpgjax bench --tricks``; docs/results/performance.md,
+    *Where the step's time goes*), so it is off by default and kept for that comparison on other versions.
+    """
+    ax, ay = jnp.abs(x), jnp.abs(y)
+    swap = ay > ax
+    num = jnp.where(swap, ax, ay)
+    den = jnp.where(swap, ay, ax)
+    a = num / jnp.where(den == 0, 1.0, den)
+    s = a * a
+    r = ((((-0.0117212 * s + 0.05265332) * s - 0.11643287) * s + 0.19354346) * s - 0.33262347) * s + 0.99997723
+    r = r * a
+    r = jnp.where(swap, np.pi / 2 - r, r)
+    r = jnp.where(x < 0, np.pi - r, r)
+    return jnp.where(y < 0, -r, r)
