@@ -16,5 +16,5 @@ from cpgjax.sim.springs import step as springs_step
 def step(model, state, ctrl, var=None):
     """Advance a batch of robots by ``model.dt`` under servo targets ``ctrl = (q*, dq*/dt)`` [nctrl, B] each;
     ``var``: an optional per-robot :class:`~cpgjax.sim.variation.Variation` (None: the nominal robot)."""
-    fn = exact_step.step if model.exact is not None else springs_step.step
+    fn = exact_step.step if model.pipeline == "exact" else springs_step.step
     return fn(model, state, ctrl, var)

@@ -72,7 +72,7 @@ def initial_state(model, batch: int = 1, dtype=jnp.float32) -> State:
         b = model.pt_body[pt]
         anchors[:, k] = x0[:, b] + quat_to_mat_np(model.q0[:, b]) @ model.pt_local[:, pt]
     exact = None
-    if model.exact is not None:
+    if model.pipeline == "exact":
         exact = ExactState(angle=tile(model.j_q0), rate=jnp.zeros((model.nj, batch), dtype))
     return State(
         x=tile(model.x0), q=tile(model.q0), anchor=tile(anchors), v=jnp.zeros((3, nb, batch), dtype),
