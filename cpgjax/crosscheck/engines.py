@@ -364,16 +364,16 @@ def control_period(seconds: float | None):
         _CONTROL_DT.reset(token)
 
 
-def control_hold(model, timestep: float, control_dt: float | None = None) -> int:
-    """MuJoCo's steps per control period: ``round(control_dt / timestep)``, at least 1 (``control_dt`` None: an
-    enclosing :func:`control_period`'s, else the model's step, the robot's control period here)."""
-    control_dt = _CONTROL_DT.get() if control_dt is None else control_dt
+def control_hold(model, timestep: float) -> int:
+    """MuJoCo's steps per control period, at least 1: the period is an enclosing :func:`control_period`'s, else the
+    model's step (the robot's control period here)."""
+    control_dt = _CONTROL_DT.get()
     return max(1, int(round((model.dt if control_dt is None else control_dt) / timestep)))
 
 
 def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_DELTA,
                       timestep: float = MJ_TIMESTEP, latency: int = 0, mj=None, record: bool = False, steer=None,
-                      watch=None, control_dt: float | None = None):
+                      watch=None):
     """Roll out N closed-loop controllers (a :class:`~cpgjax.episode.policy.ClosedLoop`, robots first) in MuJoCo C,
     one step at a time: each step the observation is computed from MuJoCo's state (:func:`mujoco_observe`), the
     policy acts on it (numpy, the formulas of :mod:`cpgjax.episode.policy`) and the servo targets go to the position
@@ -384,9 +384,9 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     ``watch(step, datas)`` after every step (``step`` from 1), to read what qpos does not hold (contacts:
     :mod:`cpgjax.crosscheck.agreement`).
 
-    The controller runs at the robot's control period ``control_dt`` (None: the model's step, at which it runs
+    The controller runs at the robot's control period (:func:`control_hold`: the model's step, at which it runs
     here): where MuJoCo integrates with a shorter step, the observation, the command and the action are taken
-    every ``round(control_dt / timestep)`` steps and held in between, as our step holds them, so that the
+    once per period and held in between, as our step holds them, so that the
     controller reads, acts and lags (``latency``: one control period) as here, whatever MuJoCo's step.
     ``observations`` and ``steer`` are then per control period.
     """
@@ -397,7 +397,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     mj = mj if mj is not None else load(model, timestep=timestep)
     dt = mj.opt.timestep
     nstep = int(round(time / dt))
-    hold = control_hold(model, dt, control_dt)
+    hold = control_hold(model, dt)
     fam = controller.family
     C = np.asarray(controller.coeffs, np.float64)                   # [N, n_ctrl, 2K+1]
     W = np.asarray(controller.weights, np.float64)                  # [N, out, in]

@@ -17,12 +17,10 @@ import numpy as np
 def _feed(h, x) -> None:
     if x is None or isinstance(x, (bool, int, float, complex, str, bytes)):
         h.update(f"{type(x).__name__}:{x!r};".encode())
-    elif isinstance(x, np.ndarray) or hasattr(x, "__array__") and hasattr(x, "dtype"):
+    elif hasattr(x, "__array__") and hasattr(x, "dtype"):      # numpy and JAX arrays, numpy scalars
         a = np.ascontiguousarray(np.asarray(x))
         h.update(f"array:{a.dtype.str}:{a.shape};".encode())
         h.update(a.tobytes() if a.dtype != object else repr(a.tolist()).encode())
-    elif isinstance(x, np.generic):
-        _feed(h, x.item())
     elif dataclasses.is_dataclass(x) and not isinstance(x, type):
         h.update(f"{type(x).__qualname__}(".encode())
         for f in dataclasses.fields(x):
