@@ -15,6 +15,13 @@ import jax.numpy as jnp
 DEFAULT_DELTA = 8.0
 
 
+def up_cos(model, q):
+    """cos(theta) of the tracked body: the angle between its normal and the vertical (``R_zz`` of its quaternion
+    ``q`` [4, nb, B])."""
+    qb = q[:, model.track]
+    return 1.0 - 2.0 * (qb[1] ** 2 + qb[2] ** 2)
+
+
 def stability(cos_theta, delta=DEFAULT_DELTA):
     """Vestibular stability S(theta) in [0, 1] from cos(theta) (eq. 6.2); 0 when upside down."""
     c2 = jnp.square(jnp.maximum(cos_theta, 0.0))

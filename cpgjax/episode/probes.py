@@ -30,7 +30,7 @@ import jax.numpy as jnp
 
 from cpgjax.episode import descriptors as bd
 from cpgjax.episode import steering as st
-from cpgjax.episode.fitness import stability
+from cpgjax.episode.fitness import stability, up_cos
 from cpgjax.episode.support import projection_stability
 from cpgjax.sim.contact import terrain_under
 from cpgjax.sim.rotation import quat_to_mat
@@ -92,8 +92,7 @@ def stability_measures(model, s: State, p, var, delta):
         zc, _ = terrain_under(model, cp[0], cp[1], var)
         zcm, _ = terrain_under(model, cm[0], cm[1], var)
     proj, n_down = projection_stability(cp[0], cp[1], zc - cp[2] > 0, (cm[0], cm[1], cm[2] - zcm))
-    qb = s.q[:, model.track]
-    return stability(1.0 - 2.0 * (qb[1] ** 2 + qb[2] ** 2), delta), proj, n_down
+    return stability(up_cos(model, s.q), delta), proj, n_down
 
 
 @dataclass(frozen=True)

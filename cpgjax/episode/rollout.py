@@ -26,7 +26,7 @@ from cpgjax.episode import probes as pb
 from cpgjax.episode import sensors
 from cpgjax.episode import steering as st
 from cpgjax.episode.cpg import targets
-from cpgjax.episode.fitness import stability
+from cpgjax.episode.fitness import stability, up_cos
 from cpgjax.sim.contact import terrain_under
 from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.pipeline import step
@@ -71,12 +71,6 @@ def _healthy(s: State):
 
 def _keep(ok, new, old):
     return jax.tree.map(lambda n, o: jnp.where(ok, n, o) if n.ndim else n, new, old)
-
-
-def _up_cos(model, q):
-    """cos of the angle between the tracked body's normal and the vertical (R_zz)."""
-    qb = q[:, model.track]
-    return 1.0 - 2.0 * (qb[1] ** 2 + qb[2] ** 2)
 
 
 # With ``fall_ends``, a robot whose body tilts past this angle has fallen: its fitness stops there.
@@ -188,7 +182,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
         if closed:
             cl["d"] = cl["d"] + dt * mf
         vy = s.v[fwd, model.track]
-        fit = fit + vy * stability(_up_cos(model, s.q), delta)
+        fit = fit + vy * stability(up_cos(model, s.q), delta)
         return (s, fit, cl), None
 
     def outer_body(carry, _):
@@ -214,7 +208,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
         else:
             zg, _ = terrain_under(model, p[0, model.ct_pt], p[1, model.ct_pt], var)
             depth = (zg - p[2, model.ct_pt]).max(0, initial=0.0) + zero
-        cosu = _up_cos(model, s_new.q)
+        cosu = up_cos(model, s_new.q)
         down = acc["down"] | (fall_ends & (cosu < math.cos(FALL_TILT)))
         acc = {
             "fit": acc["fit"] + jnp.where(ok & ~acc["down"], fit, 0.0),
