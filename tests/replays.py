@@ -1,6 +1,7 @@
 """Claims of what a controller does ("walks +1.32 m in 10 s, stays up"), checked by replaying it with
 ``cpgjax simulate``: the README's GIF rows (tests/test_figures.py) and the headers of the shipped controllers
-(tests/test_models.py)."""
+(tests/test_models.py); and of how a steering controller walks a path ("finished in 42.6 s, waypoints 32 of 32"),
+checked by replaying it with ``cpgjax follow``."""
 
 from __future__ import annotations
 
@@ -48,3 +49,32 @@ def updated(claim: str, dist: float, fell: bool) -> str:
     """``claim`` rewritten for an episode that went ``dist`` metres and fell or not."""
     m = CLAIM.match(claim)
     return f"{m['verb']} {dist:+.2f} m{m['what']}, {'falls' if fell else 'stays up'}"
+
+
+# A walk's claim: how it ended (the time to a tenth of a second) and the waypoints it passed, as `cpgjax follow`
+# prints them.  The time within the distance's tolerance (RTOL) and half a tenth; how it ended and the waypoints
+# exactly.  (The shipped steering gait's walks were the same under XLA_FLAGS=--xla_cpu_max_isa=AVX2, bit for bit.)
+WALK = re.compile(r"(?P<end>finished in|fell at|did not finish)(?: (?P<t>\d+\.\d) s)?, "
+                  r"waypoints (?P<k>\d+) of (?P<n>\d+)")
+
+
+def replay_walk(argv: list[str], capsys) -> str:
+    """How ``cpgjax follow ARGV`` (one controller, one path, one engine) ended, as a claim: "finished in 42.6 s,
+    waypoints 32 of 32"."""
+    capsys.readouterr()
+    assert cli.main(["follow", *argv]) == 0
+    out = capsys.readouterr().out
+    rows = re.findall(r"^\S+ \S+(?: \[[^]]+\])?:\s+(finished in \d+\.\d s|fell at \d+\.\d s|did not finish), "
+                      r"mean distance .*?(waypoints \d+ of \d+)", out, re.M)
+    assert len(rows) == 1, f"cpgjax follow {' '.join(argv)}: one walk expected, it printed:\n{out}"
+    return f"{rows[0][0]}, {rows[0][1]}"
+
+
+def check_walk(claim: str, now: str, name: str, fix: str) -> None:
+    """The walk claimed, ``claim``, and the one replayed, ``now``, ended the same way, at the same waypoint, at
+    about the same time."""
+    c, w = WALK.fullmatch(claim), WALK.fullmatch(now)
+    assert c, f"{name}: the claim should read 'finished in T s|fell at T s|did not finish, waypoints K of N': {claim!r}"
+    same = (c["end"], c["k"], c["n"]) == (w["end"], w["k"], w["n"])
+    assert same and (c["t"] is None or abs(float(w["t"]) - float(c["t"])) <= RTOL * float(c["t"]) + 0.05), (
+        f"{name}: the walk now {now}; the claim says {claim}: {fix}")

@@ -77,3 +77,22 @@ def test_the_check_fails_on_a_wrong_distance_or_fall():
         check("walks +0.79 m, stays up", 0.79, True, "x", FIX)
     with pytest.raises(AssertionError):
         check("walks about a metre", 0.79, False, "x", FIX)
+
+
+def test_the_readme_shows_the_follow_gif_that_make_figures_draws_and_its_headers_claims():
+    """The README's steering example: ``make figures`` draws its GIF with the README's command, and the walks the
+    README quotes are the ones the controller's header claims (tests/test_models.py replays those)."""
+    text = README.read_text()
+    block = text[text.index("<!-- follow -->"):]
+    command = re.search(r"^    (cpgjax follow .+)$", block, re.M)[1]
+    gif = ROOT / "docs/figures/follow-steer.gif"
+    assert "(docs/figures/follow-steer.gif)" in text and gif.stat().st_size > 10_000
+    make = MAKEFILE.read_text()
+    assert command.replace("cpgjax ", "$(BIN)/cpgjax ", 1) in make[make.index("\nfigures:"):], (
+        "`make figures` does not draw docs/figures/follow-steer.gif with the README's command")
+    argv = shlex.split(command)
+    ctl, path = argv[argv.index("--ctl") + 1], argv[argv.index("--path") + 1]
+    header = (ROOT / ctl).read_text()
+    for engine, where in (("", "Here it "), (" --engine mujoco", "in MuJoCo C (`--engine mujoco`) it ")):
+        claim = re.search(rf"--path {re.escape(path)}{engine}  ->  (.+)$", header, re.M)[1]
+        assert f"{where}{claim}" in " ".join(block.split()), f"README.md does not quote {ctl}'s claim: {claim}"

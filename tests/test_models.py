@@ -8,7 +8,7 @@ import shlex
 
 import numpy as np
 import pytest
-from replays import check, replay
+from replays import check, check_walk, replay, replay_walk
 
 from cpgjax.analysis.contacts import feet_down
 from cpgjax.episode.batch import simulate
@@ -64,9 +64,10 @@ def test_hexapod_walks_with_a_tripod_gait():
 
 
 # Every shipped controller says in its header how it was made and what it does with today's code, one line per
-# replay: "#   cpgjax simulate ARGS  ->  CLAIM".  Each line is replayed here (the quadruped's springs lines share
-# one compiled program with the README's example, the 6 s lines with tests/test_figures.py's GIF replays).
-HEADER_LINE = re.compile(r"^#\s+cpgjax simulate (?P<args>.+?)\s+->\s+(?P<claim>.+?)\s*$", re.M)
+# replay: "#   cpgjax simulate ARGS  ->  CLAIM", and for a steering controller "#   cpgjax follow ARGS  ->  CLAIM".
+# Each line is replayed here (the quadruped's springs lines share one compiled program with the README's example,
+# the 6 s lines with tests/test_figures.py's GIF replays).
+HEADER_LINE = re.compile(r"^#\s+cpgjax (?P<args>(?:simulate|follow) .+?)\s+->\s+(?P<claim>.+?)\s*$", re.M)
 CONTROLLERS = sorted(glob.glob(os.path.join(ROOT, "models", "*.ctl")))
 
 
@@ -85,12 +86,21 @@ def test_every_shipped_controller_has_a_header_that_says_how_it_was_made_and_wha
             assert f"--ctl models/{name}" in args, f"{path}: a header line replays another controller: {args}"
 
 
+def exact(path: str, args: str) -> bool:
+    """The line replays on exact joints: said, or its controller's header's pipeline."""
+    return "--pipeline exact" in args or read_ctl(path).header.setting("pipeline") == "exact"
+
+
 # The exact pipeline's lines compile a program of their own (15-25 s of CPU each): marked slow (make test-slow).
 @pytest.mark.parametrize("path,args,claim", [
-    pytest.param(p, a, c, id=f"{os.path.basename(p)}:{' '.join(a.split()[3:]) or 'default'}",
-                 marks=[pytest.mark.slow] if "--pipeline exact" in a else [])
+    pytest.param(p, a, c, id=f"{os.path.basename(p)}:{' '.join(a.split()[4:]) or 'default'}",
+                 marks=[pytest.mark.slow] if exact(p, a) else [])
     for p in CONTROLLERS for a, c in header_claims(p)])
 def test_each_shipped_controller_does_what_its_header_says(path, args, claim, capsys, monkeypatch):
     monkeypatch.chdir(ROOT)
-    dist, fell = replay(shlex.split(args), capsys)
+    command, *argv = shlex.split(args)
+    if command == "follow":
+        check_walk(claim, replay_walk(argv, capsys), f"{path}: '{args}'", "replay it and update the header line")
+        return
+    dist, fell = replay(argv, capsys)
     check(claim, dist, fell, f"{path}: '{args}'", "replay it and update the header line")

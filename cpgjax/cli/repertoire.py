@@ -195,8 +195,8 @@ def register(subparsers: Any) -> None:
                    help=f"--ctl: commanded turning rate per rad of heading error (default {GAIN:g} 1/s)")
     p.add_argument("--limit", type=o.float_in(0.0, 10.0, lo_open=True, what="a rate in (0, 10] rad/s"),
                    default=None, metavar="RAD/S",
-                   help=f"--ctl: the command's range, that of the evolution's --perturb command=R "
-                        f"(default {LIMIT:g} rad/s)")
+                   help=f"--ctl: the command's range, that of the evolution's --perturb command=R (default: the "
+                        f"--ctl header's '# command:', else {LIMIT:g} rad/s)")
     o.pipeline_option(p, f"{o.CTL_PIPELINE}; --ctl only")
     p.add_argument("--engine", choices=("ours", "mujoco", "both"), default=None,
                    help="--ctl: walk in our simulator (default), in MuJoCo C (the robot: the policy reads MuJoCo's "
@@ -384,7 +384,7 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         raise ValueError("--video draws our simulator's walk: with --engine ours or both")
     from cpgjax.cli.simulate import header_settings
 
-    rp = header_settings(args.ctl, args, takes=("pipeline",))     # --time is the walk's, not an episode's
+    rp = header_settings(args.ctl, args, takes=("pipeline", "command"))   # --time is the walk's, not an episode's
     if rp.note:
         print(f"header: {rp.note}", flush=True)
     if engine != "ours":
@@ -398,7 +398,7 @@ def _follow_ctl(args: argparse.Namespace) -> int:
 
     with ground_form(args.mujoco_ground):
         r = steer.walks(args.model, args.ctl, args.path, time=args.time or steer.TIME, gain=args.gain or steer.GAIN,
-                        limit=args.limit or steer.LIMIT, pipeline=rp.pipeline, video=args.video, engine=engine,
+                        limit=rp.command or steer.LIMIT, pipeline=rp.pipeline, video=args.video, engine=engine,
                         mujoco_dt=args.mujoco_dt)
     names = {"ours": " [ours]:     ", "mujoco": " [MuJoCo C]: "}     # the two engines' rows aligned
     for w in r:

@@ -291,12 +291,14 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
            "mean_error": float(err.mean()), "max_error": float(err.max()), "gaits": log, "lookahead": lookahead,
            "trajectory": traj.tolist(), "waypoint_xy": pts.tolist(), "repertoire": repertoire}
     if video:
-        render_walk(model, X, Q, sub * model.dt, video, f"follow {path}")
+        render_walk(model, X, Q, sub * model.dt, video, f"follow {path}", waypoints=pts)
     return out
 
 
-def render_walk(model, X, Q, dt_sample: float, out: str, title: str, fps: float = 5.0, size: int = 300) -> None:
-    """The walk's samples drawn from a fixed camera, about ``fps`` frames per simulated second."""
+def render_walk(model, X, Q, dt_sample: float, out: str, title: str, fps: float = 5.0, size: int = 300,
+                waypoints: np.ndarray | None = None, passed: np.ndarray | None = None) -> None:
+    """The walk's samples drawn from a fixed camera, about ``fps`` frames per simulated second; ``waypoints``
+    [n, 2] the path's, drawn on the ground, ``passed`` [samples] how many of them each sample has passed."""
     from cpgjax.render.movie import episode_frames, open_painter
     from cpgjax.render.poses import Poses, frames_from_cm
     from cpgjax.render.video import VideoWriter, check_output
@@ -304,8 +306,9 @@ def render_walk(model, X, Q, dt_sample: float, out: str, title: str, fps: float 
     check_output(out)
     stride = max(1, int(round(1.0 / (fps * dt_sample))))
     X, Q = X[::stride], Q[::stride]
+    passed = None if passed is None else np.asarray(passed)[::stride]
     pos, quat = frames_from_cm(model, X.astype(float), Q.astype(float))
     poses = Poses(t=np.arange(len(X)) * dt_sample * stride, pos=pos, quat=quat, label="follow", fitness=float("nan"))
     with open_painter(model, poses, size, size) as painter, VideoWriter(out, 1.0 / (dt_sample * stride)) as w:
-        for img in episode_frames(painter, [poses], "fixed", title=title):
+        for img in episode_frames(painter, [poses], "fixed", title=title, waypoints=waypoints, passed=passed):
             w.append(img)

@@ -104,7 +104,8 @@ def walks(model_path: str, ctls: list[str], paths: list[str], *, time: float = T
             raise ValueError("--video draws one walk: give one --ctl and one --path")
         X = np.asarray(tr["x"][..., 0], float)[: end + 1]
         Q = np.asarray(tr["q"][..., 0], float)[: end + 1]
-        render_walk(model, X, Q, float(t[1] - t[0]), video, f"follow {paths[0]}")
+        render_walk(model, X, Q, float(t[1] - t[0]), video, f"follow {paths[0]}", waypoints=pts[paths[0]],
+                    passed=np.asarray(tr["waypoint"][: end + 1, 0]))
     if engine == "both":
         theirs = _mujoco(model, batch, ctls, pairs, pts, time, gain, limit, reach, mujoco_dt)
         out = [w for a, b in zip(out, theirs, strict=True) for w in ({"engine": "ours"} | a, b)]

@@ -12,8 +12,9 @@ from cpgjax.errors import CpgjaxError, DescriptionError
 
 _NUM_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\Z")
 
-HEADER_KEYS = ("model", "pipeline", "controller", "time", "terrain", "run", "picked")
+HEADER_KEYS = ("model", "pipeline", "controller", "time", "terrain", "command", "run", "picked")
 _HEADER_RE = re.compile(r"#\s*([A-Za-z][A-Za-z_-]*)\s*:\s*(.*?)\s*\Z")
+OPTION = {"command": "limit"}          # the command-line option that gives a header key's setting, where it differs
 _PIPELINES = ("springs", "exact")      # cpgjax.sim.model.PIPELINES (not imported here: it loads JAX)
 
 
@@ -25,8 +26,9 @@ class Header:
     pipeline: the physics pipeline(s) it runs on, the first the one a replay takes (``exact``; ``springs, exact``;
     ``any``); controller: its family (``cpg``, ``pmtg:tilt+contact+bias:mirror``); time: the episode length [s]
     it was scored over; terrain: the ground it was scored on (a ``--terrain`` spec; ``matrix``: the model file's
-    height matrix); run: the run it came from; picked: how it was picked.  None: not said.  lines: the line of
-    each key given (for errors found later, against a command line).
+    height matrix); command: the range of the turning rate it was commanded in evolution (``--perturb command=R``,
+    rad/s; ``cpgjax follow``'s default ``--limit``); run: the run it came from; picked: how it was picked.  None: not
+    said.  lines: the line of each key given (for errors found later, against a command line).
     """
 
     model: str | None = None
@@ -34,6 +36,7 @@ class Header:
     controller: str | None = None
     time: float | None = None
     terrain: str | None = None
+    command: float | None = None
     run: str | None = None
     picked: str | None = None
     lines: dict[str, int] = field(default_factory=dict, compare=False)
@@ -63,7 +66,7 @@ class Header:
         for k in HEADER_KEYS:
             v = getattr(self, k)
             if v is not None:
-                out.append(f"# {k}: {v:g}" if k == "time" else f"# {k}: {' '.join(str(v).split())}")
+                out.append(f"# {k}: {v:g}" if k in ("time", "command") else f"# {k}: {' '.join(str(v).split())}")
         return out
 
 
@@ -92,6 +95,12 @@ def header_line(h: Header, raw: str, path: str, line: int) -> None:
             raise DescriptionError(path, line, f"time: expected the episode length in seconds, > 0 and <= 3600, "
                                                f"got {value!r}")
         value = float(t)
+    elif key == "command":
+        r = value.removesuffix("rad/s").strip()
+        if not _NUM_RE.match(r) or not 0 < float(r) <= 10:
+            raise DescriptionError(path, line, f"command: expected the commanded turning rate's range in rad/s, > 0 "
+                                               f"and <= 10, got {value!r}")
+        value = float(r)
     elif key == "terrain" and value != "matrix":
         from cpgjax.sim.terrain import parse_terrain
 
@@ -111,20 +120,21 @@ class Replay:
     pipeline: str | None = None
     time: float | None = None
     terrain: str | None = None
+    command: float | None = None
     note: str | None = None
 
 
 def replay_settings(controls: list[Any], model_path: str, *, pipeline: str | None = None,
-                    time: float | None = None, terrain: str | None = None,
+                    time: float | None = None, terrain: str | None = None, command: float | None = None,
                     takes: tuple[str, ...] = ("pipeline", "time", "terrain")) -> Replay:
-    """The pipeline, episode length and terrain to replay ``controls`` (:class:`cpgjax.io.ctl.Control`) with on the
-    model file ``model_path``: each option given (``pipeline``, ``time``, ``terrain``), else the headers' (they
-    must agree), else None.
+    """The pipeline, episode length, terrain and (``follow``'s ``--limit``) command range to replay ``controls``
+    (:class:`cpgjax.io.ctl.Control`) with on the model file ``model_path``: each option given (``pipeline``,
+    ``time``, ``terrain``, ``command``), else the headers' (they must agree), else None.
 
     Refused (one line, naming the file and its header's line): a header that names other model files (compared by
     name: models are copied around), or pipelines that the ``pipeline`` given is not one of.  ``takes``: the
-    settings the command takes from a header (``follow``'s length is a walk's, not an episode's; ``stability``
-    sets its own grounds): the others are neither used nor said.
+    settings the command takes from a header (``follow``'s length is a walk's, not an episode's, and it takes the
+    command range; ``stability`` sets its own grounds): the others are neither used nor said.
     """
     controls = [c for c in controls if c.header]
     name = os.path.basename(os.fspath(model_path))
@@ -145,7 +155,7 @@ def replay_settings(controls: list[Any], model_path: str, *, pipeline: str | Non
         if given is None and len(set(vals.values())) > 1:
             what = ", ".join(f"{k} {v:g} s" if key == "time" else f"{k} {v}" for k, v in vals.items())
             raise CpgjaxError(f"the controllers' headers disagree on the {key} ({what}): replay them separately"
-                              + ("" if key == "pipeline" else f", or give --{key}"))
+                              + ("" if key == "pipeline" else f", or give --{OPTION.get(key, key)}"))
         return next(iter(vals.values())) if len(set(vals.values())) == 1 else None
 
     parts, out = [], {}
@@ -163,6 +173,11 @@ def replay_settings(controls: list[Any], model_path: str, *, pipeline: str | Non
     if hg is not None:
         parts.append(f"terrain {hg}" if terrain is None or terrain == hg else
                      f"--terrain {terrain} instead of {its} {hg}")
+    hc = said("command", command) if "command" in takes else None
+    out["command"] = command if command is not None else hc
+    if hc is not None:
+        parts.append(f"--limit {hc:g} rad/s ({its} command range)" if command is None or command == hc else
+                     f"--limit {command:g} instead of {its} command range {hc:g} rad/s")
     runs = list(dict.fromkeys(c.header.run for c in controls if c.header.run))
     note = None
     if parts:
@@ -182,7 +197,9 @@ def run_header(run: str, meta: dict, model: Any, controller: str, picked: str) -
     cli = json.loads(meta.get("cli_problem_args") or "{}")
     time = cli.get("time") or meta.get("time") or model.time_max
     path = meta.get("model_path")
+    pert = meta.get("perturbations") or {}
+    command = (json.loads(pert) if isinstance(pert, str) else pert).get("command") or None
     return Header(model=os.path.basename(str(path)) if path else None, pipeline=str(meta.get("pipeline") or "springs"),
-                  controller=controller, time=float(time), terrain=cli.get("terrain") or model.terrain.spec, run=run,
-                  picked=picked)
+                  controller=controller, time=float(time), terrain=cli.get("terrain") or model.terrain.spec,
+                  command=None if command is None else float(command), run=run, picked=picked)
 

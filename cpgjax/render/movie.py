@@ -19,24 +19,30 @@ ENGINES = ("ours", "mujoco", "both")
 
 
 def caption(poses: Poses, k: int, dist: np.ndarray, cell: float, title: str | None = None) -> list[str]:
-    """The caption of frame ``k``: the engine, the time, the distance walked so far; the episode's fitness."""
+    """The caption of frame ``k``: the engine, the time, the distance walked so far; the episode's fitness (none
+    for a walk that has none, NaN: a path followed)."""
     flag = "  DIVERGED" if poses.diverged else ("  fell" if poses.fallen else "")
-    lines = [f"{poses.label}  t {poses.t[k]:5.2f} s  d {dist[k]:+.3f} m",
-             f"fitness {poses.fitness:+.4f}{flag}  grid {cell:g} m"]
+    fit = "" if np.isnan(poses.fitness) else f"fitness {poses.fitness:+.4f}{flag}  "
+    lines = [f"{poses.label}  t {poses.t[k]:5.2f} s  d {dist[k]:+.3f} m", f"{fit}grid {cell:g} m"]
     return ([title] if title else []) + lines
 
 
 def episode_frames(painter: Painter, episodes: list[Poses], camera: str, *, title: str | None = None,
-                   robot: bool = True, markers: bool = True, captions: bool = True) -> Iterator[np.ndarray]:
-    """The frames of one or more episodes of the same model (side by side), one array [H, W * n, 3] per time."""
+                   robot: bool = True, markers: bool = True, captions: bool = True,
+                   waypoints: np.ndarray | None = None, passed: np.ndarray | None = None) -> Iterator[np.ndarray]:
+    """The frames of one or more episodes of the same model (side by side), one array [H, W * n, 3] per time.
+    ``waypoints`` [n, 2]: a path's, drawn on the ground; ``passed`` [frames]: how many of them each frame has passed
+    (said in the caption)."""
     model = painter.model
     size = extent(model, episodes[0])
     vs: list[list[View]] = views(model, episodes, camera, painter.width / painter.height, size)
     dists = [distance(model, p) for p in episodes]
     n = min(p.frames for p in episodes)
     for k in range(n):
-        panes = [painter.frame(p, k, v[k], robot=robot, markers=markers,
-                               caption=caption(p, k, d, painter.cell, title) if captions else None)
+        done = 0 if passed is None else int(passed[k])
+        where = [] if waypoints is None else [f"waypoints {done} of {len(waypoints)}"]
+        panes = [painter.frame(p, k, v[k], robot=robot, markers=markers, waypoints=waypoints, passed=done,
+                               caption=caption(p, k, d, painter.cell, title) + where if captions else None)
                  for p, v, d in zip(episodes, vs, dists, strict=True)]
         yield panes[0] if len(panes) == 1 else np.concatenate(panes, axis=1)
 

@@ -27,6 +27,8 @@ from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
 CAMERAS = ("track", "fixed", "side")
 DEFAULT_RGBA = (0.6, 0.6, 0.62, 1.0)
 CONTACT_RGBA = (0.9, 0.1, 0.1, 1.0)
+WAYPOINT_RGBA = (1.0, 0.55, 0.0, 1.0)      # a path's waypoint still to pass (follow's videos) ...
+PASSED_RGBA = (0.1, 0.7, 0.2, 1.0)         # ... and one passed
 FOVY = 45.0  # degrees
 VIEW = {"track": (145.0, -20.0), "fixed": (145.0, -25.0), "side": (180.0, -12.0)}  # azimuth, elevation (deg)
 _CELLS = (0.01, 0.02, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 5.0)
@@ -244,8 +246,9 @@ class Painter:
         return self._points[key]
 
     def frame(self, poses: Poses, k: int, view: View, *, caption: list[str] | None = None, robot: bool = True,
-              markers: bool = True) -> np.ndarray:
-        """Frame ``k`` of ``poses`` as uint8 [height, width, 3]."""
+              markers: bool = True, waypoints: np.ndarray | None = None, passed: int = 0) -> np.ndarray:
+        """Frame ``k`` of ``poses`` as uint8 [height, width, 3]; ``waypoints`` [n, 2] (m, on flat ground): a path's
+        waypoints drawn as discs on the ground, the first ``passed`` of them in green."""
         import mujoco
 
         d = self.data
@@ -267,6 +270,15 @@ class Painter:
                 mujoco.mjv_initGeom(scn.geoms[scn.ngeom], mujoco.mjtGeom.mjGEOM_SPHERE, np.array([self.marker, 0, 0]),
                                     p, np.eye(3).ravel(), np.asarray(CONTACT_RGBA, np.float32))
                 scn.ngeom += 1
+        scn = self.renderer.scene
+        for i, xy in enumerate(() if waypoints is None else waypoints):
+            if scn.ngeom >= scn.maxgeom:
+                break
+            r = 4 * self.marker
+            mujoco.mjv_initGeom(scn.geoms[scn.ngeom], mujoco.mjtGeom.mjGEOM_CYLINDER, np.array([r, r, 0.1 * r]),
+                                np.array([xy[0], xy[1], 0.1 * r]), np.eye(3).ravel(),
+                                np.asarray(PASSED_RGBA if i < passed else WAYPOINT_RGBA, np.float32))
+            scn.ngeom += 1
         img = self.renderer.render().copy()
         if caption:
             img = draw_caption(img, caption)

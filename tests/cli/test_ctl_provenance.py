@@ -142,6 +142,17 @@ def test_render_and_follow_take_the_header_pipeline(tmp_path, capsys, monkeypatc
     assert main(["follow", "models/quadruped.wl", "--ctl", ctl, "--path", "line:1"]) == 0
     assert capsys.readouterr().out.splitlines()[0] == f"header: {ctl}: pipeline exact"      # its time: the walk's
     assert seen["follow"] == ("exact", steer.TIME)
+    monkeypatch.setattr(steer, "walks", lambda *a, limit=None, **k: seen.update(limit=limit) or [])
+    assert main(["follow", "models/quadruped.wl", "--ctl", ctl, "--path", "line:1"]) == 0
+    assert seen["limit"] == steer.LIMIT                                   # no command range said: the default
+    steering = headed(tmp_path, "model: quadruped.wl;pipeline: exact;command: 0.4")
+    capsys.readouterr()
+    assert main(["follow", "models/quadruped.wl", "--ctl", steering, "--path", "line:1"]) == 0
+    assert capsys.readouterr().out.splitlines()[0] == f"header: {steering}: pipeline exact, --limit 0.4 rad/s (its " \
+                                                      "command range)"
+    assert seen["limit"] == 0.4
+    assert main(["follow", "models/quadruped.wl", "--ctl", steering, "--path", "line:1", "--limit", "0.2"]) == 0
+    assert seen["limit"] == 0.2
 
 
 def test_transfer_points_a_controller_to_its_run(tmp_path, capsys):

@@ -58,6 +58,8 @@ def test_keys_are_case_insensitive_times_may_say_s_and_lists_are_comma_separated
     ("# terrain: lava\n", 1, "terrain:"),
     ("# run: a.h5\n# run: b.h5\n", 2, "a second 'run:' line in the header (the first is line 1)"),
     ("# picked:\n", 1, "the header's 'picked:' line has no value"),
+    ("# command: -0.4\n", 1, "command: expected the commanded turning rate's range in rad/s"),
+    ("# command: fast\n", 1, "command: expected the commanded turning rate's range in rad/s"),
     ("# controller: pmtg\n", 1, "its header says controller pmtg, but the file holds an open-loop CPG"),
 ])
 def test_a_bad_header_line_is_named(header, line, says):
@@ -110,12 +112,40 @@ def test_controllers_whose_headers_disagree_are_refused_unless_the_option_settle
     assert (r.pipeline, r.time) == ("exact", 5.0) and r.note.startswith("a.ctl, b.ctl: pipeline exact, 5 s")
 
 
+def test_a_steering_controllers_command_range_is_follows_limit_unless_given():
+    """``# command: R`` (the run's ``--perturb command=R``, rad/s) is what ``follow`` takes as its ``--limit``."""
+    c = ctl("# pipeline: exact\n# command: 0.4 rad/s\n")
+    assert c.header.command == 0.4 and Header(command=0.4).text() == ["# command: 0.4"]
+    r = replay_settings([c], "m.wl", takes=("pipeline", "command"))
+    assert (r.pipeline, r.command, r.note) == ("exact", 0.4, "x.ctl: pipeline exact, --limit 0.4 rad/s (its command "
+                                                             "range)")
+    r = replay_settings([c], "m.wl", command=0.3, takes=("pipeline", "command"))
+    assert r.command == 0.3 and r.note.endswith("--limit 0.3 instead of its command range 0.4 rad/s")
+    assert replay_settings([c], "m.wl").command is None           # a command that does not take it: not said
+    with pytest.raises(CpgjaxError, match="disagree on the command .*, or give --limit$"):
+        replay_settings([c, ctl("# command: 0.3\n", "b.ctl")], "m.wl", takes=("command",))
+
+
+def test_a_runs_header_says_its_command_range():
+    from types import SimpleNamespace
+
+    from cpgjax.io.ctl_header import run_header
+
+    model = SimpleNamespace(time_max=10.0, terrain=SimpleNamespace(spec="flat"))
+    meta = {"model_path": "models/quadruped.wl", "pipeline": "exact", "perturbations": {"command": 0.4}}
+    assert run_header("r.h5", meta, model, "cpg", "x").command == 0.4
+    assert run_header("r.h5", meta | {"perturbations": '{"command": 0.0}'}, model, "cpg", "x").command is None
+    assert run_header("r.h5", {"model_path": "q.wl"}, model, "cpg", "x").command is None
+
+
 @pytest.mark.parametrize("path", sorted(glob.glob(os.path.join(ROOT, "models", "*.ctl"))), ids=os.path.basename)
 def test_every_shipped_controller_names_its_model_and_how_it_was_made(path):
-    h = read_ctl(path).header
-    assert h.models and h.pipeline and h.controller == "cpg" and h.picked
+    c = read_ctl(path)
+    h = c.header
+    assert h.models and h.pipeline and h.controller and h.picked
+    assert (h.controller == "cpg") == (c.policy is None)          # the family it names is the one it holds
+    assert (h.command is not None) == ("command" in h.controller)  # a steering controller says its command range
     name = os.path.basename(path)
-    wl = {"quadruped-trot.ctl": "quadruped.wl", "quadruped-robust.ctl": "quadruped.wl"}.get(name,
-                                                                                            name[:-4] + ".wl")
+    wl = "quadruped.wl" if name.startswith("quadruped-") else name[:-4] + ".wl"
     assert wl in h.models
     assert (h.run is None) == ("by hand" in h.picked)      # the hand-written ones come from no run
