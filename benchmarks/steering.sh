@@ -15,6 +15,7 @@
 #   MIRROR=1 sh benchmarks/steering.sh runs/steering-mirror "315 316 317"  # a mirror-symmetric genome
 #   MIRROR=1 SPEED=0.12 COMMAND=0.4 LIMIT=0.4 sh benchmarks/steering.sh runs/steering-c04-l04 "336 337 338"
 #                                                   # the follower's limit (default 0.3) at the evolved command range
+#   ... PERTURB=bristle=2,bristle_from=1 sh benchmarks/steering.sh ...   # more --perturb settings, appended
 #
 # A seed whose OUT/sS.ctl exists is not evolved again (the script resumes).  CPGJAX names the cpgjax executable
 # (default .venv/bin/cpgjax); the wall and user time of each evolution is printed by /usr/bin/time.
@@ -30,7 +31,7 @@ for S in $SEEDS; do
         /usr/bin/time -f "s$S: %e s wall, %U s user" $CPGJAX evolve models/quadruped.wl \
             --start models/quadruped-trot.ctl --pipeline exact \
             --controller pmtg:tilt+contact+command+steer+bias${MIRROR:+:mirror} --evaluation robust \
-            --perturb command=${COMMAND:-0.3},fall_zero=on${REPLICAS:+,replicas=$REPLICAS}${SPEED:+,speed=$SPEED} --delta 1 --population 40 --generations 150 --time 10 \
+            --perturb command=${COMMAND:-0.3},fall_zero=on${REPLICAS:+,replicas=$REPLICAS}${SPEED:+,speed=$SPEED}${PERTURB:+,$PERTURB} --delta 1 --population 40 --generations 150 --time 10 \
             --pocket 4 --gamma 0.01 --chunk 10 --seed "$S" --out "$OUT/s$S.h5" --overwrite --quiet
         $CPGJAX best "$OUT/s$S.h5" --ctl "$OUT/s$S.ctl"
     }
