@@ -102,8 +102,8 @@ def run_crosscheck(model, coeffs, labels, *, time: float, delta: float = 8.0, mj
                 row[f"{e}_{k}"] = float(np.asarray(res[e][k])[i])
             row[f"{e}_fallen"] = bool(np.asarray(res[e]["fallen"])[i])
         rows.append(row)
-    summary = {"n": len(labels), "time": time, "penalty_dt": model.dt, "penalty_alpha": model.alpha,
-               "penalty_beta": model.beta, "penalty_pipeline": model.pipeline, "terrain": model.terrain.spec,
+    summary = {"n": len(labels), "time": time, "penalty_dt": model.dt, "penalty_alpha": model.joint_spring[0],
+               "penalty_beta": model.joint_spring[1], "penalty_pipeline": model.pipeline, "terrain": model.terrain.spec,
                "mujoco_dt": mj_dt}
     for e in engines:
         summary[f"falls_{e}"] = int(np.sum(np.asarray(res[e]["fallen"], bool)))

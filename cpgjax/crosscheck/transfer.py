@@ -174,7 +174,7 @@ def variant(model, dt: float | None = None, joint_spring=None):
     if dt is not None:
         changes["dt"] = float(dt)
     if joint_spring is not None:
-        changes["alpha"], changes["beta"] = (float(v) for v in joint_spring)
+        changes["joint_spring"] = tuple(float(v) for v in joint_spring)
     return model.replace(**changes) if changes else model
 
 

@@ -94,8 +94,6 @@ class Model:
     ground_B: float
     mu_static: float
     mu_dynamic: float
-    alpha: float
-    beta: float
     friction_k: float  # friction bristle spring [N/m] and damper [N s/m] (sim.contact)
     friction_b: float
     dt: float
@@ -152,22 +150,35 @@ class Model:
     def __eq__(self, other) -> bool:
         return self is other or (isinstance(other, Model) and self.fingerprint == other.fingerprint)
 
-    def replace(self, **changes) -> Model:
+    @property
+    def joint_spring(self) -> tuple[float, float]:
+        """The springs pipeline's pivot springs (alpha [N/m], beta [N s/m]; eq. 3.6): its part's, else the
+        description's ``JointSpring``, else the defaults."""
+        if self.springs is not None:
+            return self.springs.alpha, self.springs.beta
+        js = self.description.joint_spring if self.description is not None else None
+        return tuple(float(v) for v in js) if js else (DEFAULT_ALPHA, DEFAULT_BETA)
+
+    def replace(self, *, joint_spring: tuple[float, float] | None = None, **changes) -> Model:
         """A new Model with some fields changed (e.g. ``dt``, ``gravity``, ``terrain``, ``pipeline``), its pipeline's
-        part built again for them (``exact.materialize`` carried over)."""
+        part built again for them (``exact.materialize`` and the pivot springs carried over); ``joint_spring``:
+        the springs pipeline's pivot springs (alpha, beta) instead."""
         new = dataclasses.replace(self, **changes)
         if "springs" in changes or "exact" in changes:
             return new
-        return with_pipeline_part(new, materialize=self.exact.materialize if self.exact is not None else True)
+        return with_pipeline_part(new, materialize=self.exact.materialize if self.exact is not None else True,
+                                  joint_spring=joint_spring or self.joint_spring)
 
 
-def with_pipeline_part(model: Model, materialize: bool = True) -> Model:
-    """``model`` with the part of its pipeline built (the other part None)."""
+def with_pipeline_part(model: Model, materialize: bool = True,
+                       joint_spring: tuple[float, float] | None = None) -> Model:
+    """``model`` with the part of its pipeline built (the other part None); ``joint_spring``: the springs
+    pipeline's pivot springs (alpha, beta; None: :attr:`Model.joint_spring`)."""
     if model.pipeline == "exact":
         if model.description is None:
             raise ValueError("a Model needs its Description to run on exact joints")
         return dataclasses.replace(model, springs=None, exact=build_exact(model, model.description, materialize))
-    return dataclasses.replace(model, springs=build_springs(model), exact=None)
+    return dataclasses.replace(model, springs=build_springs(model, *(joint_spring or model.joint_spring)), exact=None)
 
 
 # ----------------------------------------------------------------------------- shapes
@@ -383,7 +394,6 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
     track = index[desc.track] if desc.track else (
         next((i for i, n in enumerate(names) if n not in children), 0))
     A, B = desc.ground
-    alpha, beta = desc.joint_spring or (DEFAULT_ALPHA, DEFAULT_BETA)
     friction_k, friction_b = desc.friction_spring or (DEFAULT_FRICTION_K, DEFAULT_FRICTION_B)
     ground = make_terrain(terrain) if terrain else make_terrain(desc.terrain)
     if not any(fixed):      # the robot starts on its terrain, not in it (a robot with a fixed body stays put)
@@ -402,7 +412,7 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         gravity=float(desc.gravity), ground_A=float(A), ground_B=float(B),
         mu_static=float(desc.friction),
         mu_dynamic=float(desc.friction_dynamic if desc.friction_dynamic is not None else desc.friction),
-        alpha=float(alpha), beta=float(beta), friction_k=float(friction_k), friction_b=float(friction_b),
+        friction_k=float(friction_k), friction_b=float(friction_b),
         dt=float(dt or file_dt(desc, pipe)),
         terrain=ground,
         track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),

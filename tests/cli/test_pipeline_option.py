@@ -81,7 +81,7 @@ def test_pivot_springs_belong_to_the_springs_pipeline(tmp_path, capsys):
     from cpgjax.crosscheck.transfer import variant
     from cpgjax.io.wl import load_model
 
-    assert variant(load_model("models/quadruped.wl"), joint_spring=(1e5, 100)).alpha == 1e5
+    assert variant(load_model("models/quadruped.wl"), joint_spring=(1e5, 100)).springs.alpha == 1e5
     with pytest.raises(ValueError, match="exact pipeline, whose joints have none"):
         variant(load_model("models/quadruped.wl", pipeline="exact"), joint_spring=(1e5, 100))
     assert main(["crosscheck", "models/quadruped.wl", "--pipeline", "exact", "--joint-spring", "1e5", "100",

@@ -48,9 +48,9 @@ def test_our_side_can_be_replayed_with_another_step_and_stiffer_joints(runs):
     assert args.dt == 1.25e-4 and args.joint_spring == [3e6, 1000.0]
     run = transfer.read_run(str(runs / "thesis.h5"))
     m = transfer.cached_model(str(run.meta["model_text"]), "q.wl", None, args.dt, tuple(args.joint_spring))
-    assert (m.dt, m.alpha, m.beta) == (1.25e-4, 3e6, 1000.0)
+    assert (m.dt, m.springs.alpha, m.springs.beta) == (1.25e-4, 3e6, 1000.0)
     base = transfer.cached_model(str(run.meta["model_text"]), "q.wl", None)
-    assert (base.dt, base.alpha, base.beta) == (5e-4, 3e5, 300.0)   # the thesis's defaults
+    assert (base.dt, *base.joint_spring) == (5e-4, 3e5, 300.0)   # the thesis's defaults
     # MuJoCo's side does not depend on them: the same MJCF
     from cpgjax.crosscheck.mjcf import to_mjcf
     assert to_mjcf(m) == to_mjcf(base)

@@ -16,16 +16,19 @@ from cpgjax.sim.description import DescriptionError
 
 @dataclass(frozen=True, eq=False)
 class SpringsModel:
-    """Static arrays of the springs pipeline (numpy: compile-time constants)."""
+    """The springs pipeline's settings and static arrays (numpy: compile-time constants)."""
 
+    alpha: float             # the pivot springs' stiffness [N/m] (eq. 3.6; the .wl file's JointSpring)
+    beta: float              # and their damping [N s/m]
     pt_src: np.ndarray       # [npt] where each point's force comes from in [spring a-ends, b-ends, contacts]
     sp_inv_meff: np.ndarray  # [ns] conservative 1/effective mass of each pivot spring, for its implicit damper
     j_inv_ieff: np.ndarray   # [nj] a.(Ia^-1 + Ib^-1).a, for the implicit joint dampers (servo, limits)
 
 
-def build_springs(model) -> SpringsModel:
-    """The springs pipeline's part of ``model``; :class:`DescriptionError` when a point's effective mass
-    overflows (a pivot or contact vertex too far from its body's CM for its inertia)."""
+def build_springs(model, alpha: float, beta: float) -> SpringsModel:
+    """The springs pipeline's part of ``model``, its pivot springs ``alpha``, ``beta`` (eq. 3.6);
+    :class:`DescriptionError` when a point's effective mass overflows (a pivot or contact vertex too far from its
+    body's CM for its inertia)."""
     nb, fixed = model.nb, np.asarray(model.fixed, bool)
     pt_body, pt_local = model.pt_body, model.pt_local
     i_min = np.array([np.linalg.eigvalsh(model.inertia[:, :, b]).min() for b in range(nb)])
@@ -47,4 +50,5 @@ def build_springs(model) -> SpringsModel:
     pt_src[model.ct_pt] = 2 * ns + np.arange(len(model.ct_pt))
     j_inv_ieff = np.array([sum(0.0 if fixed[k] else model.j_axis[:, j] @ model.inv_inertia[:, :, k] @ model.j_axis[:, j]
                                for k in (model.j_a[j], model.j_b[j])) for j in range(model.nj)]).reshape(-1)
-    return SpringsModel(pt_src=pt_src, sp_inv_meff=inv_m_pt[model.sp_a] + inv_m_pt[model.sp_b], j_inv_ieff=j_inv_ieff)
+    return SpringsModel(alpha=float(alpha), beta=float(beta), pt_src=pt_src,
+                        sp_inv_meff=inv_m_pt[model.sp_a] + inv_m_pt[model.sp_b], j_inv_ieff=j_inv_ieff)

@@ -16,5 +16,6 @@ def pivot_spring_forces(model, p, pv):
     """Force on the first end of every pivot spring [3, ns, B] (its negative acts on the second)."""
     dpos = p[:, model.sp_b] - p[:, model.sp_a]
     dvel = pv[:, model.sp_b] - pv[:, model.sp_a]
-    beta_eff = (model.beta / (1.0 + model.dt * model.beta * model.springs.sp_inv_meff))[:, None]
-    return model.alpha * dpos + beta_eff * dvel
+    sp = model.springs
+    beta_eff = (sp.beta / (1.0 + model.dt * sp.beta * sp.sp_inv_meff))[:, None]
+    return sp.alpha * dpos + beta_eff * dvel
