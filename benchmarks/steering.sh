@@ -16,6 +16,7 @@
 #   MIRROR=1 SPEED=0.12 COMMAND=0.4 LIMIT=0.4 sh benchmarks/steering.sh runs/steering-c04-l04 "336 337 338"
 #                                                   # the follower's limit (default 0.3) at the evolved command range
 #   ... PERTURB=bristle=2,bristle_from=1 sh benchmarks/steering.sh ...   # more --perturb settings, appended
+#   ... INPUTS=tilt+contact+command+steer+turn+bias ...   # what the policy reads (default without turn)
 #
 # A seed whose OUT/sS.ctl exists is not evolved again (the script resumes).  CPGJAX names the cpgjax executable
 # (default .venv/bin/cpgjax); the wall and user time of each evolution is printed by /usr/bin/time.
@@ -30,7 +31,7 @@ for S in $SEEDS; do
     [ -f "$OUT/s$S.ctl" ] || {
         /usr/bin/time -f "s$S: %e s wall, %U s user" $CPGJAX evolve models/quadruped.wl \
             --start models/quadruped-trot.ctl --pipeline exact \
-            --controller pmtg:tilt+contact+command+steer+bias${MIRROR:+:mirror} --evaluation robust \
+            --controller pmtg:${INPUTS:-tilt+contact+command+steer+bias}${MIRROR:+:mirror} --evaluation robust \
             --perturb command=${COMMAND:-0.3},fall_zero=on${REPLICAS:+,replicas=$REPLICAS}${SPEED:+,speed=$SPEED}${PERTURB:+,$PERTURB} --delta 1 --population 40 --generations 150 --time 10 \
             --pocket 4 --gamma 0.01 --chunk 10 --seed "$S" --out "$OUT/s$S.h5" --overwrite --quiet
         $CPGJAX best "$OUT/s$S.h5" --ctl "$OUT/s$S.ctl"

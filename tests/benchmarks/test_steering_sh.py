@@ -46,12 +46,12 @@ def _run(tmp_path, out, seeds, **env) -> list:
 def test_the_recipe_its_settings_and_the_walks(tmp_path):
     out = tmp_path / "steer"
     cmds = _run(tmp_path, out, "5 6", MIRROR="1", SPEED="0.12", COMMAND="0.4", LIMIT="0.4", REPLICAS="8",
-                PERTURB="bristle=2,bristle_from=1")
+                PERTURB="bristle=2,bristle_from=1", INPUTS="tilt+contact+command+steer+turn+bias")
     assert [c.command for c in cmds] == ["evolve", "best", "evolve", "best", "follow"]
     for seed, (evolve, best) in zip((5, 6), (cmds[0:2], cmds[2:4]), strict=True):
         assert (evolve.seed, evolve.population, evolve.generations, evolve.time) == (seed, 40, 150, 10.0)
         assert evolve.pipeline == "exact" and evolve.evaluation == "robust" and evolve.delta == 1.0
-        assert evolve.controller == "pmtg:tilt+contact+command+steer+bias:mirror"
+        assert evolve.controller == "pmtg:tilt+contact+command+steer+turn+bias:mirror"
         assert evolve.perturb == {"command": 0.4, "fall_zero": True, "replicas": 8, "speed": 0.12, "bristle": 2.0,
                                   "bristle_from": 1.0}
         assert best.run == evolve.out == str(out / f"s{seed}.h5") and best.ctl == str(out / f"s{seed}.ctl")
