@@ -60,9 +60,9 @@ def header_settings(ctls: list[str], args: argparse.Namespace, takes: tuple[str,
     options ``takes`` names, given, else their headers' (a header made for another model, or a contradicted
     pipeline, is refused: :func:`cpgjax.io.ctl.replay_settings`)."""
     from cpgjax.io.ctl import read_ctl, replay_settings
+    from cpgjax.io.ctl_header import OPTION
 
-    option = {"command": "limit"}       # io.ctl_header.OPTION
-    given = {k: getattr(args, option.get(k, k), None) if k in takes else None
+    given = {k: getattr(args, OPTION.get(k, k), None) if k in takes else None
              for k in ("pipeline", "time", "terrain", "command")}
     return replay_settings([read_ctl(c) for c in ctls], model or args.model, **given, takes=takes)
 

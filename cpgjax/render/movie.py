@@ -32,7 +32,7 @@ def episode_frames(painter: Painter, episodes: list[Poses], camera: str, *, titl
                    waypoints: np.ndarray | None = None, passed: np.ndarray | None = None) -> Iterator[np.ndarray]:
     """The frames of one or more episodes of the same model (side by side), one array [H, W * n, 3] per time.
     ``waypoints`` [n, 2]: a path's, drawn on the ground; ``passed`` [frames]: how many of them each frame has passed
-    (said in the caption)."""
+    (drawn in green and said in the caption; None: not known, nothing said)."""
     model = painter.model
     size = extent(model, episodes[0])
     vs: list[list[View]] = views(model, episodes, camera, painter.width / painter.height, size)
@@ -40,7 +40,7 @@ def episode_frames(painter: Painter, episodes: list[Poses], camera: str, *, titl
     n = min(p.frames for p in episodes)
     for k in range(n):
         done = 0 if passed is None else int(passed[k])
-        where = [] if waypoints is None else [f"waypoints {done} of {len(waypoints)}"]
+        where = [] if waypoints is None or passed is None else [f"waypoints {done} of {len(waypoints)}"]
         panes = [painter.frame(p, k, v[k], robot=robot, markers=markers, waypoints=waypoints, passed=done,
                                caption=caption(p, k, d, painter.cell, title) + where if captions else None)
                  for p, v, d in zip(episodes, vs, dists, strict=True)]

@@ -263,3 +263,31 @@ def test_a_run_files_best_renders_through_the_command_line(tiny_runs, tmp_path, 
     assert out.stat().st_size > 1000 and "fitness" in capsys.readouterr().out
     assert cli.main(["render", run, "--generation", "5", "--out", str(tmp_path / "x.gif")]) == 2
     assert "generations 0..1" in capsys.readouterr().err and not (tmp_path / "x.gif").exists()
+
+
+
+def test_a_paths_waypoints_are_drawn_green_once_passed_and_counted_in_the_caption(trot):
+    """follow's videos: the waypoints as discs on the ground (orange, green once passed), "waypoints k of n" in the
+    caption only where the count is known, and no fitness line for a walk (its fitness NaN)."""
+    import dataclasses
+
+    m, _, poses = trot
+    walk = dataclasses.replace(poses, fitness=float("nan"))
+    pts = np.array([[0.0, 0.3], [0.0, 0.6]])
+    with open_painter(m, walk, W, H) as p:
+        plain = next(episode_frames(p, [walk], "fixed", captions=False))
+        ahead = next(episode_frames(p, [walk], "fixed", captions=False, waypoints=pts, passed=np.zeros(13)))
+        done = next(episode_frames(p, [walk], "fixed", captions=False, waypoints=pts, passed=np.full(13, 2)))
+        said = []
+        frame = p.frame
+        p.frame = lambda *a, caption=None, **k: said.append(caption) or frame(*a, caption=caption, **k)
+        list(episode_frames(p, [walk], "fixed", waypoints=pts, passed=np.arange(13) // 6))
+        list(episode_frames(p, [walk], "fixed", waypoints=pts))
+    drawn = np.abs(ahead.astype(int) - plain.astype(int)).max(-1) > 24
+    assert drawn.sum() > 10                                       # the discs are in the picture
+    orange, green = ahead[drawn].astype(int).mean(0), done[drawn].astype(int).mean(0)
+    assert orange[0] > orange[1] and green[1] > green[0]          # orange ahead, green once passed
+    assert [c[-1] for c in said[:13]] == [f"waypoints {k // 6} of 2" for k in range(13)]
+    assert all(not c[-1].startswith("waypoints") for c in said[13:])          # not known: not said
+    assert not any(line.startswith("fitness") for c in said for line in c)     # a walk has no fitness
+    assert movie.caption(poses, 0, np.zeros(13), 0.1)[-1].startswith("fitness ")   # an episode has one
