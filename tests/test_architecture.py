@@ -143,3 +143,22 @@ def test_the_checker_sees_a_cycle_and_a_function_level_import(tmp_path, monkeypa
     deps = imports("cpgjax.sim.probe")
     assert deps == {"cpgjax.optim.ga"}
     assert layer("cpgjax.optim.ga") not in ALLOWED["sim"]
+
+
+MAX_LINES = 450   # the design card: one concept per module, files under 450 lines
+
+
+def too_long(paths, limit: int = MAX_LINES) -> list[str]:
+    return [f"{p.relative_to(PKG.parent)}: {n} lines" for p in paths
+            if (n := len(p.read_text().splitlines())) > limit]
+
+
+def test_no_module_over_450_lines():
+    roots = [PKG, PKG.parent / "benchmarks", PKG.parent / "tests"]
+    paths = [p for r in roots for p in sorted(r.rglob("*.py"))]
+    assert not too_long(paths), too_long(paths)
+
+
+def test_the_line_count_sees_a_long_file():
+    p = PKG / "__init__.py"
+    assert too_long([p], limit=1) and not too_long([p], limit=10**6)

@@ -33,8 +33,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import foot_geoms, mujoco_closed_run, root_slice, spearman
+from cpgjax.crosscheck.engines import foot_geoms, mujoco_closed_run, root_slice
 from cpgjax.crosscheck.mjcf import load
+from cpgjax.crosscheck.ranks import spearman
 from cpgjax.episode.descriptors import legs
 from cpgjax.episode.rollout import FALL_TILT
 from cpgjax.sim.rotation import quat_to_mat_np

@@ -13,8 +13,9 @@ import os
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import joint_angles, mjx_run, mujoco_run, spearman, spearman_interval
+from cpgjax.crosscheck.engines import joint_angles, mjx_run, mujoco_run
 from cpgjax.crosscheck.mjcf import MJ_TIMESTEP
+from cpgjax.crosscheck.ranks import spearman, spearman_interval
 from cpgjax.episode.cpg import GENE_BOX
 
 ENGINES = ("penalty", "mujoco", "mjx")

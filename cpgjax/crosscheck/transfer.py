@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import mujoco_run, spearman, spearman_interval
+from cpgjax.crosscheck.engines import mujoco_run
 from cpgjax.crosscheck.mjcf import load
+from cpgjax.crosscheck.ranks import spearman, spearman_interval
 from cpgjax.episode.batch import simulate
 from cpgjax.episode.cpg import GENE_BOX
 from cpgjax.episode.policy import family_from_meta, from_genomes

@@ -102,8 +102,9 @@ def friction_study(model_path: str, ctl_path: str, springs, *, runs=(), replays:
     MuJoCo C runs once (its model does not depend on the bristle).  Returns one dict per spring.
     """
     from cpgjax.crosscheck.compare import controllers
-    from cpgjax.crosscheck.engines import mujoco_run, spearman
+    from cpgjax.crosscheck.engines import mujoco_run
     from cpgjax.crosscheck.mjcf import load
+    from cpgjax.crosscheck.ranks import spearman
     from cpgjax.episode.batch import simulate
     from cpgjax.io.results import read_run
     from cpgjax.io.sweepdir import run_files

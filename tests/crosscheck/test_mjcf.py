@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 from simcases import rig
 
-from cpgjax.crosscheck.engines import joint_angles, mujoco_run, spearman, spearman_interval
+from cpgjax.crosscheck.engines import joint_angles, mujoco_run
 from cpgjax.crosscheck.mjcf import load, to_mjcf
+from cpgjax.crosscheck.ranks import spearman, spearman_interval
 from cpgjax.episode.batch import simulate
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
