@@ -61,7 +61,7 @@ def run(fields, dts, forms, time: float, out=sys.stdout) -> list[dict]:
     for label, ctl, pipeline in CTLS:
         for spec in fields:
             model = load_model("models/quadruped.wl", terrain=spec, pipeline=pipeline)
-            coeffs = read_ctl(ctl, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs[None]
+            coeffs = read_ctl(ctl, n_dof=model.n_ctrl, harmonics=model.episode.harmonics).coeffs[None]
             for dt in dts:
                 for form in forms:
                     t0 = _time.perf_counter()

@@ -27,7 +27,7 @@ def batch(model, paths: list[str], time: float):
     from cpgjax.episode import steering
     from cpgjax.io.ctl import read_ctl
 
-    cs = [pol.from_control(read_ctl(p, n_dof=model.n_ctrl, harmonics=model.harmonics), model) for p in paths]
+    cs = [pol.from_control(read_ctl(p, n_dof=model.n_ctrl, harmonics=model.episode.harmonics), model) for p in paths]
     cmd = np.tile(COMMANDS, len(cs))
     return pol.stack([c for c in cs for _ in COMMANDS], model).replace(
         steer=steering.Schedule(cmd, cmd, time / 2, float(np.abs(COMMANDS).max())))

@@ -20,7 +20,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 def run(name, ctl=True, record=False, time=None):
     m = load_model(f"models/{name}.wl")
-    c = read_ctl(f"models/{name}.ctl", n_dof=m.n_ctrl, harmonics=m.harmonics).coeffs if ctl else \
+    c = read_ctl(f"models/{name}.ctl", n_dof=m.n_ctrl, harmonics=m.episode.harmonics).coeffs if ctl else \
         np.zeros((m.n_ctrl, m.n_coeff))
     return m, simulate(m, c, record=record, **({} if time is None else {"time": time}))
 

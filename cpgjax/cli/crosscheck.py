@@ -160,7 +160,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
         raise ValueError("no controllers: give --ctl, --controllers RUN.h5, --random N or --perturbed N")
     if args.n:
         coeffs, labels = coeffs[: args.n], labels[: args.n]
-    T = rp.time or model.time_max
+    T = rp.time or model.episode.time_max
     note = rough_step_note([model.terrain.spec], args.mujoco_dt)
     if note:
         print(note, file=sys.stderr)

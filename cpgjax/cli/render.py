@@ -99,7 +99,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         rp = header_settings([args.ctl] if args.ctl else [], args)
         model = load_model(args.model, terrain=rp.terrain, pipeline=rp.pipeline)
         coeffs, name = load_controller(args.ctl, model)
-        T = rp.time or model.time_max
+        T = rp.time or model.episode.time_max
         if rp.note:
             print(f"header: {rp.note}", flush=True)
         title = f"{os.path.basename(args.model)} + {os.path.basename(name)}" if args.ctl else None

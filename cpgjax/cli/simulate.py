@@ -50,7 +50,7 @@ def load_controller(ctl: str | None, model):
 
     if not ctl:
         return np.zeros((model.n_ctrl, model.n_coeff)), "-"
-    c = read_ctl(ctl, n_dof=model.n_ctrl, harmonics=model.harmonics)
+    c = read_ctl(ctl, n_dof=model.n_ctrl, harmonics=model.episode.harmonics)
     return from_control(c, model), ctl
 
 
@@ -78,7 +78,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.gravity is not None:
         model = model.replace(gravity=args.gravity)
     coeffs, ctl_name = load_controller(args.ctl, model)
-    T = model.time_max if rp.time is None else rp.time
+    T = model.episode.time_max if rp.time is None else rp.time
     if rp.note:
         print(f"header    {rp.note}")
     r = simulate(model, coeffs, time=T, delta=args.delta, record=bool(args.log))

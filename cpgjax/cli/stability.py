@@ -114,7 +114,7 @@ def _controllers(args, model_path: str) -> int:
     from cpgjax.plots.stability import condition_panels, flat_panel
 
     model = load_model(model_path, pipeline=args.pipeline)
-    coeffs = stack([from_control(read_ctl(c, n_dof=model.n_ctrl, harmonics=model.harmonics), model)
+    coeffs = stack([from_control(read_ctl(c, n_dof=model.n_ctrl, harmonics=model.episode.harmonics), model)
                     for c in args.ctl], model)
     names = [_slug(c) for c in args.ctl]
     if len(set(names)) < len(names):

@@ -201,7 +201,7 @@ def compare_runs(paths, *, terrain: str, mujoco_dt: float, per_run: int = 6, pip
         if not text:
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
         model = cached_model(text, str(run.meta.get("model_path", path)), terrain, None, None, pipeline or run.pipeline)
-        T = float(time or T or model.time_max)
+        T = float(time or T or model.episode.time_max)
         picked = pick_gaits(run, per_run)
         family = family_from_meta(run.meta)
         C = from_genomes(family, model, np.stack([g for _, g in picked]))

@@ -33,7 +33,7 @@ def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_pertu
 
     out, labels = [], []
     for f in ctl_files:
-        out.append(from_control(read_ctl(f, n_dof=model.n_ctrl, harmonics=model.harmonics), model))
+        out.append(from_control(read_ctl(f, n_dof=model.n_ctrl, harmonics=model.episode.harmonics), model))
         labels.append(os.path.basename(f))
     for f in run_files:
         from cpgjax.io.results import read_run
@@ -60,7 +60,7 @@ def controllers(model, *, ctl_files=(), run_files=(), n_random: int = 0, n_pertu
         out.append(rng.uniform(-GENE_BOX, GENE_BOX, (model.n_ctrl, model.n_coeff)))
         labels.append(f"random{i}")
     if n_perturbed and base_ctl:
-        base = read_ctl(base_ctl, n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs
+        base = read_ctl(base_ctl, n_dof=model.n_ctrl, harmonics=model.episode.harmonics).coeffs
         for i in range(n_perturbed):
             out.append(np.clip(base + rng.normal(0.0, 0.1, base.shape), -GENE_BOX, GENE_BOX))
             labels.append(f"{os.path.basename(base_ctl)}+N(0,0.1)#{i}")

@@ -28,7 +28,8 @@ def controls(model, coeffs, nstep: int, dt: float) -> np.ndarray:
     import jax.numpy as jnp
 
     t = np.arange(nstep) * dt
-    b, db = (np.asarray(x) for x in basis(jnp.asarray(t, jnp.float32), model.harmonics, model.frequency))
+    ep = model.episode
+    b, db = (np.asarray(x) for x in basis(jnp.asarray(t, jnp.float32), ep.harmonics, ep.frequency))
     c = np.asarray(coeffs, np.float64)
     q = np.einsum("nck,ks->nsc", c, b)
     dq = np.einsum("nck,ks->nsc", c, db)
@@ -367,7 +368,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     W = np.asarray(controller.weights, np.float64)                  # [N, out, in]
     N = C.shape[0]
     cmd = np.zeros(N) if controller.command is None else np.asarray(controller.command, float).reshape(N)
-    K, f0, n = model.harmonics, model.frequency, model.n_ctrl
+    K, f0, n = model.episode.harmonics, model.episode.frequency, model.n_ctrl
     cj = model.ctrl_joint
     ratio = np.where(model.j_kp[cj] > 0, model.j_kd[cj] / np.maximum(model.j_kp[cj], 1e-12), 0.0)
     lim = pol.LIMITS

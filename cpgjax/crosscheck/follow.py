@@ -71,7 +71,7 @@ def walk(model, controller, paths: list[np.ndarray], *, time: float, gain: float
     ``dt`` (MuJoCo's step)."""
     mj = load(model) if timestep is None else load(model, timestep=timestep)
     dt = float(mj.opt.timestep)
-    inner = max(1, int(round(1.0 / (model.log_rate * dt))))
+    inner = max(1, int(round(1.0 / (model.episode.log_rate * dt))))
     outer = max(1, int(math.ceil(round(time / dt, 6) / inner)))
     fol = Follower(paths, gain, limit, reach)
     psi0, xy0, _ = pose(model, mj, initial_qpos(model, mj)[None])

@@ -228,7 +228,7 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
             raise ValueError(f"{path}: the run holds no model (an analytic problem?): nothing to replay")
         model = cached_model(text, str(run.meta.get("model_path", path)), terrain or evolved_on, dt, joint_spring,
                        pipeline or run.pipeline)
-        T = float(time or model.time_max)
+        T = float(time or model.episode.time_max)
         # the controller and its jittered copies: a CPG's, or a closed loop
         C = from_genomes(family_from_meta(run.meta), model, jittered(genome, replays, jitter, seed))
         ours = simulate(model, C, time=T)

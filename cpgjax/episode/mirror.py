@@ -150,7 +150,7 @@ def _mirror(model, family) -> Mirror:
     partner, sigma = joint_pairs(model)
     m, s = input_map(model, family)
     n_ctrl, n_coeff, n_in = model.n_ctrl, model.n_coeff, family.n_in(model)
-    harm = np.array([1.0] + [(-1.0) ** k for k in range(1, model.harmonics + 1) for _ in (0, 1)])
+    harm = np.array([1.0] + [(-1.0) ** k for k in range(1, model.episode.harmonics + 1) for _ in (0, 1)])
     cpg = np.zeros((n_ctrl, n_coeff, 2))          # (source full index, sign) of each CPG gene
     W = np.zeros((family.n_out(model), n_in, 2))  # the same for each weight
     base = n_ctrl * n_coeff

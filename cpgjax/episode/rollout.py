@@ -39,8 +39,8 @@ LIMIT_VEL = 1.0e3  # m/s, rad/s
 
 def schedule(model, time: float | None, log_rate: float | None = None):
     """(steps per sample, samples): the episode is rounded up to whole log periods."""
-    T = model.time_max if time is None else float(time)
-    rate = model.log_rate if log_rate is None else float(log_rate)
+    T = model.episode.time_max if time is None else float(time)
+    rate = model.episode.log_rate if log_rate is None else float(log_rate)
     inner = max(1, int(round(1.0 / (rate * model.dt))))
     outer = max(1, int(math.ceil(round(T / model.dt, 6) / inner)))
     return inner, outer
@@ -145,7 +145,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
 
     B = coeffs.shape[-1]
     s0 = initial_state(model, B, coeffs.dtype) if var is None else varied_initial_state(model, var, coeffs.dtype)
-    K, f0, dt = model.harmonics, model.frequency, model.dt
+    K, f0, dt = model.episode.harmonics, model.episode.frequency, model.dt
     fwd = forward
 
     def sense(s, b, command):

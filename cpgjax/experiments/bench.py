@@ -32,7 +32,7 @@ def _controllers(model, n, seed=0):
     from cpgjax.episode.cpg import GENE_BOX, sinusoid_genome
 
     rng = np.random.default_rng(seed)
-    base = sinusoid_genome(model.n_ctrl, model.harmonics).reshape(model.n_ctrl, model.n_coeff)
+    base = sinusoid_genome(model.n_ctrl, model.episode.harmonics).reshape(model.n_ctrl, model.n_coeff)
     return np.clip(base[None] + rng.uniform(-0.3, 0.3, (n, model.n_ctrl, model.n_coeff)), -GENE_BOX, GENE_BOX)
 
 

@@ -110,7 +110,7 @@ def _cycle_fn(model, steps: int, sub: int):
     repertoire's evaluation ran it: a batch narrower than that is computed with other instructions, and an
     evolved gait is chaotic enough that the last bits decide whether it falls (docs/results/repertoire-steering.md:
     a gait that walks in a batch of 16 and turns over in a batch of 1 or 2)."""
-    K, f0 = model.harmonics, model.frequency
+    K, f0 = model.episode.harmonics, model.episode.frequency
 
     def run(state, coeffs):
         def inner(s, _):
@@ -204,9 +204,9 @@ def follow(model_path: str, repertoire: str, path: str, *, cycles: int | None = 
     model = load_model(model_path, pipeline=str(rep.meta.get("pipeline") or "springs"))
     if rep.meta.get("model_text") and model.description.text != rep.meta["model_text"]:
         raise ResultsError(f"{model_path}: not the model the repertoire {repertoire} was made with")
-    period = 1.0 / model.frequency
+    period = 1.0 / model.episode.frequency
     steps = int(round(period / model.dt))
-    sub = max(1, int(round(1.0 / (model.log_rate * model.dt))))
+    sub = max(1, int(round(1.0 / (model.episode.log_rate * model.dt))))
     steps -= steps % sub
     if min_speed is None:
         min_speed = MIN_SPEED_LOOKAHEAD if lookahead else MIN_SPEED

@@ -74,7 +74,7 @@ def table_a1(models_dir: str, *, batch: int = 256, time_s: float | None = None, 
         if ctl is None:
             c = np.zeros((model.n_ctrl, model.n_coeff))
         else:
-            c = read_ctl(os.path.join(models_dir, ctl), n_dof=model.n_ctrl, harmonics=model.harmonics).coeffs
+            c = read_ctl(os.path.join(models_dir, ctl), n_dof=model.n_ctrl, harmonics=model.episode.harmonics).coeffs
         inner, outer = schedule(model, T)
         sim_t = inner * outer * model.dt
         one = jnp.asarray(c, jnp.float32)[..., None]

@@ -264,7 +264,7 @@ def model_of(run, pipeline: str | None = None):
     cli = json.loads(run.meta.get("cli_problem_args", "{}") or "{}")
     model = build_model(parse_wl(text, str(run.meta.get("model_path", run.path))), terrain=cli.get("terrain"),
                         pipeline=pipeline or run.pipeline)
-    return model, float(cli.get("time") or run.meta.get("time") or model.time_max)
+    return model, float(cli.get("time") or run.meta.get("time") or model.episode.time_max)
 
 
 

@@ -41,7 +41,7 @@ LIMIT = 0.3      # rad/s: the command's range, the robust evaluation's ``command
 
 def controller(path: str, model):
     """The one-robot :class:`~cpgjax.episode.policy.ClosedLoop` of a `.ctl` file; it must read the command."""
-    c = pol.from_control(read_ctl(path, n_dof=model.n_ctrl, harmonics=model.harmonics), model)
+    c = pol.from_control(read_ctl(path, n_dof=model.n_ctrl, harmonics=model.episode.harmonics), model)
     if not pol.is_closed(c) or not {"command", "steer"} & set(c.family.inputs):
         raise ValueError(f"--ctl {path}: a controller that reads the commanded turning rate is needed "
                          "(evolved with --controller pmtg:...+command+... or ...+steer+... and --perturb command=R)")

@@ -25,7 +25,7 @@ def timestep_study(model_path: str, ctl_path: str, dts, *, time_s: float = 10.0,
     from cpgjax.io.wl import load_model
 
     base = load_model(model_path, pipeline=pipeline)
-    trot = np.asarray(read_ctl(ctl_path, n_dof=base.n_ctrl, harmonics=base.harmonics).coeffs)
+    trot = np.asarray(read_ctl(ctl_path, n_dof=base.n_ctrl, harmonics=base.episode.harmonics).coeffs)
     rng = np.random.default_rng(seed)
     rand = rng.uniform(-GENE_BOX, GENE_BOX, (n_random, base.n_ctrl, base.n_coeff))
     zero = np.zeros_like(trot)

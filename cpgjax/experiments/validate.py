@@ -127,7 +127,7 @@ def _program(text: str, path: str, terrain, delta: float, p: Perturbations, pipe
     """The model and one jitted robust evaluation per model and validation, whatever the episode's length (its
     length is an argument: a sweep's runs share one compilation, however long their episodes)."""
     model = build_model(parse_wl(text, path), terrain=terrain, pipeline=pipeline)
-    return model, jax.jit(robust_problem(path, model, p, T=float(model.time_max), delta=delta,
+    return model, jax.jit(robust_problem(path, model, p, T=float(model.episode.time_max), delta=delta,
                                          family=family).evaluate)
 
 

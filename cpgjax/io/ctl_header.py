@@ -195,7 +195,7 @@ def run_header(run: str, meta: dict, model: Any, controller: str, picked: str) -
     if model is None:           # a problem without a robot (cpgjax.optim.analytic): no physics to say
         return Header(controller=controller, run=run, picked=picked)
     cli = json.loads(meta.get("cli_problem_args") or "{}")
-    time = cli.get("time") or meta.get("time") or model.time_max
+    time = cli.get("time") or meta.get("time") or model.episode.time_max
     path = meta.get("model_path")
     pert = meta.get("perturbations") or {}
     command = (json.loads(pert) if isinstance(pert, str) else pert).get("command") or None

@@ -54,7 +54,7 @@ def behaviour_problem(model_path: str, *, descriptor: str = "duty", time: float 
         if damages else intact
     mask = jnp.asarray(dmg.controller_mask(intact, damages))
     n_ctrl, n_coeff = model.n_ctrl, model.n_coeff
-    T = model.time_max if time is None else float(time)
+    T = model.episode.time_max if time is None else float(time)
     leg_names = bd.legs(intact)[0]
     dims = descriptor_metrics(intact, descriptor)
 
@@ -73,7 +73,7 @@ def behaviour_problem(model_path: str, *, descriptor: str = "duty", time: float 
 
     meta = {"model_path": str(model_path), "model_text": desc.text, "time": T, "terrain": model.terrain.spec,
             "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline, "n_dof": n_ctrl,
-            "harmonics": model.harmonics, "frequency": model.frequency, "evaluation": "thesis",
+            "harmonics": model.episode.harmonics, "frequency": model.episode.frequency, "evaluation": "thesis",
             "descriptor": descriptor, "descriptor_metrics": json.dumps(list(dims)),
             "legs": json.dumps(list(leg_names)), "damage": dmg.describe(damages), "fall_metric": "down",
             "cli_problem_args": json.dumps({"time": time, "terrain": terrain, "delta": delta,

@@ -142,7 +142,7 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     """
     model = load_model(wl_path, dt=dt, terrain=terrain, pipeline=pipeline)
     n_ctrl = model.n_ctrl
-    T = model.time_max if time is None else float(time)
+    T = model.episode.time_max if time is None else float(time)
     G = model.n_genes if family is None else family.n_genes(model)
 
     R = max(int(replicas), 1)
@@ -174,10 +174,10 @@ def wl_problem(wl_path: str, *, time: float | None = None, terrain: str | None =
     meta = {
         "model_path": str(wl_path), "model_text": desc.text if desc else "", "time": T,
         "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline,
-        "n_dof": n_ctrl, "harmonics": model.harmonics, "frequency": model.frequency,
+        "n_dof": n_ctrl, "harmonics": model.episode.harmonics, "frequency": model.episode.frequency,
         "evaluation": "thesis", "replicas": R, "jitter": float(jitter),
     } | controller_meta(family)
-    base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
+    base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.episode.harmonics)
     return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base, symmetrize=True),
                    evaluate=evaluate_genomes, meta=meta, length=episode)
 
@@ -227,7 +227,7 @@ def controller_meta(family: Family | None) -> dict:
 
 def base_genome(model) -> np.ndarray:
     """The GA's starting controller: one 0.5 Hz sinusoid per joint (Ch. 4.3), amplitude 0.3 rad."""
-    return sinusoid_genome(model.n_ctrl, model.harmonics, amplitude=0.3)
+    return sinusoid_genome(model.n_ctrl, model.episode.harmonics, amplitude=0.3)
 
 
 METRICS = ("fitness", "diverged", "distance", "speed", "tilt", "fallen")
@@ -283,8 +283,8 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
     meta = {"model_path": str(wl_path), "model_text": desc.text if desc else "", "time": T,
             "terrain": model.terrain.spec, "delta": float(delta), "dt": model.dt, "pipeline": model.pipeline,
             "n_dof": n_ctrl,
-            "harmonics": model.harmonics, "frequency": model.frequency, "evaluation": "robust",
+            "harmonics": model.episode.harmonics, "frequency": model.episode.frequency, "evaluation": "robust",
             "replicas": R, "perturbations": p.to_dict()} | controller_meta(family)
-    base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.harmonics)
+    base = base_genome(model) if desc else sinusoid_genome(n_ctrl, model.episode.harmonics)
     return Problem(name=str(wl_path), n_genes=G, base_genome=policy_base(family, model, base, symmetrize=True),
                    evaluate=evaluate_genomes, meta=meta, stochastic=True, length=episode)

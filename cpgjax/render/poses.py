@@ -115,7 +115,7 @@ def record_ours(model, coeffs, *, time: float | None = None, fps: float = 30.0, 
     delta = DEFAULT_DELTA if delta is None else delta
     c = _one(model, coeffs)
     C = jax.tree.map(lambda a: np.repeat(a[None], LANES, 0), c)   # one whole SIMD vector of robots, as simulate runs it
-    T = model.time_max if time is None else float(time)
+    T = model.episode.time_max if time is None else float(time)
     f = jax.jit(lambda cc: rollout(model, jax.tree.map(lambda a: jnp.moveaxis(a, 0, -1), cc), time=T, delta=delta,
                                    probes=(Record(),), log_rate=fps))
     out = jax.tree.map(lambda a: np.asarray(a), f(C))
@@ -195,7 +195,7 @@ def load_run(path: str, generation: int | None = None, *, terrain: str | None = 
     model = build_model(parse_wl(text, str(run.meta.get("model_path", path))),
                         terrain=terrain if terrain is not None else cli.get("terrain"),
                         pipeline=pipeline or run.pipeline)
-    time = cli.get("time") or run.meta.get("time") or model.time_max
+    time = cli.get("time") or run.meta.get("time") or model.episode.time_max
     import jax
 
     from cpgjax.episode.policy import family_from_meta, from_genomes

@@ -50,6 +50,22 @@ AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.
 REFS = {"X": np.array([0.0, 1.0, 0.0]), "Y": np.array([0.0, 0.0, 1.0]), "Z": np.array([1.0, 0.0, 0.0])}
 
 
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """What an episode of the model is, apart from its physics (the `.wl` file's ``TimeMax``, ``LogRate``,
+    ``Harmonics`` and ``Frequency``): the default length [s] and log rate [1/s], and the CPG's number of harmonics
+    K and base frequency f0 [Hz] (eq. 4.1)."""
+
+    time_max: float
+    log_rate: float
+    harmonics: int
+    frequency: float
+
+    @staticmethod
+    def of(desc: Description) -> EpisodeConfig:
+        return EpisodeConfig(float(desc.time_max), float(desc.log_rate), int(desc.harmonics), float(desc.frequency))
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     """Frozen arrays of one robot and its world (hashed and compared by its structure, :attr:`fingerprint`): the
@@ -99,10 +115,7 @@ class Model:
     dt: float
     terrain: Terrain
     track: int  # body whose motion is scored and logged by default
-    time_max: float
-    log_rate: float
-    harmonics: int
-    frequency: float
+    episode: EpisodeConfig  # the episode's length and log rate, the CPG's harmonics and frequency
     description: Description | None = field(default=None, repr=False)
     limit_k: float = LIMIT_STIFFNESS
     limit_c: float = LIMIT_DAMPING
@@ -125,7 +138,7 @@ class Model:
 
     @property
     def n_coeff(self) -> int:
-        return 2 * self.harmonics + 1
+        return 2 * self.episode.harmonics + 1
 
     @property
     def n_genes(self) -> int:
@@ -415,7 +428,6 @@ def build_model(desc: Description, *, dt: float | None = None, terrain: str | No
         friction_k=float(friction_k), friction_b=float(friction_b),
         dt=float(dt or file_dt(desc, pipe)),
         terrain=ground,
-        track=track, time_max=float(desc.time_max), log_rate=float(desc.log_rate),
-        harmonics=int(desc.harmonics), frequency=float(desc.frequency), description=desc, pipeline=pipe,
+        track=track, episode=EpisodeConfig.of(desc), description=desc, pipeline=pipe,
     )
     return with_pipeline_part(model)

@@ -56,7 +56,7 @@ def test_replicas_average_jittered_episodes():
     f3 = np.asarray(jax.jit(p3.evaluate)(g)["fitness"])       # jitted: eagerly the episode runs op by op
     # the genome alone, unjittered: one robot, the suite's tiny episode (episode/test_rollout.py's program)
     m = load_model("models/quadruped.wl")
-    f1 = simulate(m, genome_to_coeffs(p3.base_genome, m.n_ctrl, m.harmonics), time=TINY_TIME)["fitness"]
+    f1 = simulate(m, genome_to_coeffs(p3.base_genome, m.n_ctrl, m.episode.harmonics), time=TINY_TIME)["fitness"]
     assert f3.shape == (6,) and np.isfinite(f3).all()
     assert f3[0] == f3[1] and f3[0] != f1 and abs(f3[0] - f1) < 0.05
 

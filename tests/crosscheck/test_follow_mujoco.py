@@ -109,7 +109,7 @@ def test_a_robot_off_the_path_is_commanded_back_towards_it_in_mujoco_as_in_ours(
     gain, limit = 0.5, 10.0            # no clipping: the command is proportional to the heading error
     r = mf.walk(m, _steering_controller(m, 2), paths, time=1.0, gain=gain, limit=limit)
     S = r["t"].shape[0]
-    assert S == int(round(1.0 * m.log_rate)) + 1 and r["dt"] == 0.002 and r["up"].min() > 0.9
+    assert S == int(round(1.0 * m.episode.log_rate)) + 1 and r["dt"] == 0.002 and r["up"].min() > 0.9
     c = r["command"]
     assert (c[0] > 0).all() and (c[1] < 0).all()
     course = steering.course(paths, gain, limit)
@@ -131,7 +131,7 @@ def test_the_walk_ends_at_the_first_sample_at_which_every_robot_has_finished(qua
     sample after it, measured as ours (finished at t = 0, the command 0)."""
     m, _ = quad
     r = mf.walk(m, _steering_controller(m, 1), [np.asarray([[0.0, 0.1]])], time=1.0)
-    assert r["t"].tolist() == pytest.approx([0.0, 1.0 / m.log_rate]) and r["xy"].shape == (1, 2, 2)
+    assert r["t"].tolist() == pytest.approx([0.0, 1.0 / m.episode.log_rate]) and r["xy"].shape == (1, 2, 2)
     w, end = measure(r["t"], r["waypoint"][0], r["up"][0], r["xy"][0], r["command"][0], np.asarray([[0.0, 0.1]]))
     assert end == 0 and w["finished"] and w["time"] == 0.0 and w["reached"] == 1 and w["command_mean_abs"] == 0.0
 
@@ -149,4 +149,4 @@ def test_at_a_shorter_mujoco_step_the_walk_samples_and_ends_as_at_ours(quad):
         head = np.arctan2(-d[:, 0], d[:, 1]) - r["psi"][b]
         np.testing.assert_allclose(r["command"][b], 0.5 * np.arctan2(np.sin(head), np.cos(head)), atol=2e-3)
     done = mf.walk(m, _steering_controller(m, 1), [np.asarray([[0.0, 0.1]])], time=1.0, timestep=m.dt / 4)
-    assert done["t"].tolist() == pytest.approx([0.0, 1.0 / m.log_rate]) and done["xy"].shape == (1, 2, 2)
+    assert done["t"].tolist() == pytest.approx([0.0, 1.0 / m.episode.log_rate]) and done["xy"].shape == (1, 2, 2)

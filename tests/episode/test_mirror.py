@@ -80,8 +80,8 @@ def test_a_mirrored_state_half_a_period_on_gets_the_mirrored_action(quad):
     np.testing.assert_allclose(m_f2, m_f, atol=1e-6)
     np.testing.assert_allclose(m_a2, m_a, atol=1e-6)
     t = np.linspace(0.0, 2.0, 9)
-    half = 0.5 / quad.frequency
-    now, later = (np.asarray(basis(x, quad.harmonics, quad.frequency)[0]) for x in (t, t + half))
+    half = 0.5 / quad.episode.frequency
+    now, later = (np.asarray(basis(x, quad.episode.harmonics, quad.episode.frequency)[0]) for x in (t, t + half))
     coeffs = np.asarray(c.coeffs)
     np.testing.assert_allclose(coeffs[partner] @ later, sigma[:, None] * (coeffs @ now), atol=1e-5)
 

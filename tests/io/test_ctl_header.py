@@ -131,7 +131,7 @@ def test_a_runs_header_says_its_command_range():
 
     from cpgjax.io.ctl_header import run_header
 
-    model = SimpleNamespace(time_max=10.0, terrain=SimpleNamespace(spec="flat"))
+    model = SimpleNamespace(episode=SimpleNamespace(time_max=10.0), terrain=SimpleNamespace(spec="flat"))
     meta = {"model_path": "models/quadruped.wl", "pipeline": "exact", "perturbations": {"command": 0.4}}
     assert run_header("r.h5", meta, model, "cpg", "x").command == 0.4
     assert run_header("r.h5", meta | {"perturbations": '{"command": 0.0}'}, model, "cpg", "x").command is None

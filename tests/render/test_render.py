@@ -25,7 +25,7 @@ def model_path(name):
 @pytest.fixture(scope="module")
 def trot():
     m = load_model(model_path("quadruped.wl"))
-    c = np.asarray(read_ctl(model_path("quadruped-trot.ctl"), n_dof=m.n_ctrl, harmonics=m.harmonics).coeffs)
+    c = np.asarray(read_ctl(model_path("quadruped-trot.ctl"), n_dof=m.n_ctrl, harmonics=m.episode.harmonics).coeffs)
     # 6 s at 2 frames a second: the episode of the trot's GIF caption (tests/test_figures.py), one program
     return m, c, record_ours(m, c, time=6.0, fps=2)
 
