@@ -29,9 +29,9 @@ from cpgjax.episode.cpg import targets
 from cpgjax.episode.fitness import stability, up_cos
 from cpgjax.sim.contact import terrain_under
 from cpgjax.sim.joints import joint_angles
-from cpgjax.sim.pipeline import step
+from cpgjax.sim.pipeline import init, step
 from cpgjax.sim.rotation import quat_to_mat
-from cpgjax.sim.state import State, initial_state, point_kinematics, sim_time, varied_initial_state
+from cpgjax.sim.state import State, point_kinematics, sim_time
 
 LIMIT_POS = 1.0e3  # m
 LIMIT_VEL = 1.0e3  # m/s, rad/s
@@ -144,7 +144,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
         return a / T if length is None else a * length["per_second"]
 
     B = coeffs.shape[-1]
-    s0 = initial_state(model, B, coeffs.dtype) if var is None else varied_initial_state(model, var, coeffs.dtype)
+    s0 = init(model, B, var, coeffs.dtype)
     K, f0, dt = model.episode.harmonics, model.episode.frequency, model.dt
     fwd = forward
 

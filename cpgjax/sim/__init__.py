@@ -9,14 +9,14 @@ The parts both pipelines share are here (the description, the model, the state, 
 law, the servo, joint angles and limits, rotations, per-robot variation, what the steps do for XLA's
 compiler); each pipeline is a subpackage with
 its own step: `sim.springs` (the thesis's pivot springs) and `sim.exact` (exact joints);
-`sim.pipeline.step` runs the model's.
+`sim.pipeline.init` and `sim.pipeline.step` run the model's.
 """
 
 from cpgjax.sim.description import Description, TerrainDef
 from cpgjax.sim.model import Model, build_model
-from cpgjax.sim.pipeline import step
+from cpgjax.sim.pipeline import init, step
 from cpgjax.sim.state import State, initial_state
 from cpgjax.sim.terrain import Terrain, make_terrain
 
-__all__ = ["Description", "Model", "State", "Terrain", "TerrainDef", "build_model", "initial_state",
+__all__ = ["Description", "Model", "State", "Terrain", "TerrainDef", "build_model", "init", "initial_state",
            "make_terrain", "step"]
