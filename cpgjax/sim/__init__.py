@@ -13,10 +13,10 @@ its own step: `sim.springs` (the thesis's pivot springs) and `sim.exact` (exact 
 """
 
 from cpgjax.sim.description import Description, TerrainDef
-from cpgjax.sim.model import Model, build_model
+from cpgjax.sim.model import EpisodeConfig, Model, build_model
 from cpgjax.sim.pipeline import init, step
 from cpgjax.sim.state import State, initial_state
 from cpgjax.sim.terrain import Terrain, make_terrain
 
-__all__ = ["Description", "Model", "State", "Terrain", "TerrainDef", "build_model", "init", "initial_state",
-           "make_terrain", "step"]
+__all__ = ["Description", "EpisodeConfig", "Model", "State", "Terrain", "TerrainDef", "build_model", "init",
+           "initial_state", "make_terrain", "step"]
