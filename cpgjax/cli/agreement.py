@@ -43,6 +43,9 @@ def register(subparsers: Any) -> None:
                    help="MuJoCo's contact stiffness and damping (its solref) scaled by this (default: as exported, "
                         "1); e.g. 4 sinks MuJoCo's walking feet about as deep as ours (docs/results/walker.md); "
                         "MuJoCo's side only")
+    from cpgjax.cli.crosscheck import mujoco_contact_option
+
+    mujoco_contact_option(a)
     a.add_argument("--mujoco-control-dt", type=o.positive, default=None, metavar="SECONDS",
                    help="the closed-loop controller's period in MuJoCo C (default: the model's step, 0.002 for "
                         "models/quadruped.wl, as here; MuJoCo's step reads and acts every step); MuJoCo's side only")
@@ -70,10 +73,12 @@ def cmd_agreement(args: argparse.Namespace) -> int:
     if args.friction_spring:
         ours = {"friction_k": float(args.friction_spring[0]), "friction_b": float(args.friction_spring[1])}
     from cpgjax.crosscheck.engines import control_period
+    from cpgjax.crosscheck.impedance import contact_law
     from cpgjax.crosscheck.mjcf import contact_stiffness
 
     with tqdm(total=len(files) * args.per_run, desc="agreement", unit="gait", disable=args.json) as bar, \
-            contact_stiffness(args.mujoco_stiffness), control_period(args.mujoco_control_dt):
+            contact_stiffness(args.mujoco_stiffness), control_period(args.mujoco_control_dt), \
+            contact_law(args.mujoco_contact):
         gaits = agreement.compare_runs(files, terrain=args.terrain, mujoco_dt=args.mujoco_dt, per_run=args.per_run,
                                        pipeline=args.pipeline, time=args.time, ours=ours, replays=args.replays,
                                        progress=lambda _: bar.update())
@@ -82,6 +87,8 @@ def cmd_agreement(args: argparse.Namespace) -> int:
         summary["friction_spring"] = list(args.friction_spring)
     if args.mujoco_stiffness is not None:
         summary["mujoco_stiffness"] = args.mujoco_stiffness
+    if args.mujoco_contact is not None:
+        summary["mujoco_contact"] = args.mujoco_contact
     if args.mujoco_control_dt is not None:
         summary["mujoco_control_dt"] = args.mujoco_control_dt
     text = agreement.table(gaits)

@@ -4,12 +4,14 @@ replayed in MuJoCo."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from typing import Any
 
 from cpgjax.cli import options as o
 from cpgjax.crosscheck.ground import GROUND_FORMS, ground_form
+from cpgjax.crosscheck.impedance import CONTACT_LAWS, contact_law
 from cpgjax.episode.cpg import GENE_BOX
 
 
@@ -96,9 +98,25 @@ def register(subparsers: Any) -> None:
 
 
 def mujoco_ground_option(p: argparse.ArgumentParser) -> None:
+    """``--mujoco-ground`` and ``--mujoco-contact``: MuJoCo C's ground (:func:`mujoco_ground`)."""
     p.add_argument("--mujoco-ground", choices=GROUND_FORMS, default=None,
                    help="the form of a non-flat ground in MuJoCo C: hfield (default), mesh or boxes, the same surface "
                         "(MJX keeps the heightfield; docs/crosscheck.md, the ground's form in MuJoCo)")
+    mujoco_contact_option(p)
+
+
+def mujoco_contact_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--mujoco-contact", choices=CONTACT_LAWS, default=None,
+                   help="MuJoCo C's contact stiffness and damping: resting (default: per unit mass, for the mass a "
+                        "resting foot carries) or per-contact (each step divided by each touching foot's own "
+                        "effective mass: eq. 3.7's force per metre, as here; docs/crosscheck.md)")
+
+
+@contextlib.contextmanager
+def mujoco_ground(args: argparse.Namespace):
+    """Within this block MuJoCo C's ground has the form and the contact law ``args`` ask for."""
+    with ground_form(getattr(args, "mujoco_ground", None)), contact_law(getattr(args, "mujoco_contact", None)):
+        yield
 
 
 def _variant_options(p: argparse.ArgumentParser) -> None:
@@ -164,7 +182,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     note = rough_step_note([model.terrain.spec], args.mujoco_dt)
     if note:
         print(note, file=sys.stderr)
-    with ground_form(args.mujoco_ground):
+    with mujoco_ground(args):
         rows, summary = run_crosscheck(model, coeffs, labels, time=T, mjx=not args.no_mjx, ceiling=not args.no_ceiling,
                                        show=args.show, out_dir=args.out, mujoco_dt=args.mujoco_dt)
     if args.mujoco_ground and not model.terrain.flat:
@@ -232,7 +250,7 @@ def cmd_transfer(args: argparse.Namespace) -> int:
             return champion.recorded, champion.genome, champion.to_dict()
         here.append(f"each run's validated champion ({v.candidates} candidates x {v.episodes} episodes, "
                     f"seed {v.seed}{v.stricter})")
-    with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar, ground_form(args.mujoco_ground):
+    with tqdm(total=len(files), desc="transfer", unit="run", disable=args.json) as bar, mujoco_ground(args):
         replays = transfer.replay_runs(files, replays=args.replays, jitter=args.jitter, seed=args.seed,
                                        dt=args.dt, joint_spring=args.joint_spring, pipeline=args.pipeline,
                                        terrain=args.terrain, pick=pick, progress=lambda _: bar.update(),
@@ -254,6 +272,9 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.mujoco_ground is not None:
         here.append(f"MuJoCo's ground {args.mujoco_ground}")
         summary["mujoco_ground"] = args.mujoco_ground
+    if args.mujoco_contact is not None:
+        here.append(f"MuJoCo's contact {args.mujoco_contact}")
+        summary["mujoco_contact"] = args.mujoco_contact
     if args.joint_spring is not None:
         here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
         summary["joint_spring"] = list(args.joint_spring)

@@ -347,7 +347,7 @@ def cmd_follow(args: argparse.Namespace) -> int:
     if ctl_only:
         raise ValueError(f"{', '.join(ctl_only)}: with --ctl only (a repertoire's gaits run for whole cycles, on its "
                          "pipeline)")
-    mj_only = [f"--{n.replace('_', '-')}" for n in ("engine", "mujoco_dt", "mujoco_ground")
+    mj_only = [f"--{n.replace('_', '-')}" for n in ("engine", "mujoco_dt", "mujoco_ground", "mujoco_contact")
                if getattr(args, n) is not None]
     if mj_only:
         raise ValueError(f"{', '.join(mj_only)}: with --ctl only (a repertoire's walk is its look-ahead's "
@@ -377,7 +377,7 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         if getattr(args, n) is not None:
             raise ValueError(f"--{n.replace('_', '-')}: with --repertoire only")
     engine = args.engine or "ours"
-    for n in ("mujoco_dt", "mujoco_ground"):
+    for n in ("mujoco_dt", "mujoco_ground", "mujoco_contact"):
         if getattr(args, n) is not None and engine == "ours":
             raise ValueError(f"--{n.replace('_', '-')}: with --engine mujoco or both (MuJoCo C's)")
     if args.video and engine == "mujoco":
@@ -394,9 +394,9 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         note = rough_step_note([load_model(args.model).terrain.spec], args.mujoco_dt)
         if note:
             print(note, file=sys.stderr)
-    from cpgjax.crosscheck.ground import ground_form
+    from cpgjax.cli.crosscheck import mujoco_ground
 
-    with ground_form(args.mujoco_ground):
+    with mujoco_ground(args):
         r = steer.walks(args.model, args.ctl, args.path, time=args.time or steer.TIME, gain=args.gain or steer.GAIN,
                         limit=rp.command or steer.LIMIT, pipeline=rp.pipeline, video=args.video, engine=engine,
                         mujoco_dt=args.mujoco_dt)

@@ -17,6 +17,7 @@ import time as _time
 
 import numpy as np
 
+from cpgjax.crosscheck.impedance import from_rest, step, stepper
 from cpgjax.crosscheck.mjcf import MJ_TIMESTEP, initial_qpos, load
 from cpgjax.episode.cpg import basis
 from cpgjax.episode.fitness import DEFAULT_DELTA
@@ -80,7 +81,7 @@ def joint_angles(model, mj, qpos):
     return qpos[..., adr]
 
 
-def _rollout_from_rest(model, mj, ctrl: np.ndarray, nthread: int | None):
+def _rolloutfrom_rest(model, mj, ctrl: np.ndarray, nthread: int | None):
     """(x0, states [N, nstep, ...]): MuJoCo C's threaded rollout of controls [N, nstep, nu] from the initial pose."""
     import os
 
@@ -113,10 +114,22 @@ def mujoco_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, time
     nstep = int(round(time / mj.opt.timestep))
     ctrl = controls(model, coeffs, nstep, mj.opt.timestep)
     t0 = _time.perf_counter()
-    x0, state = _rollout_from_rest(model, mj, ctrl, nthread)
+    law = stepper(model, mj, len(ctrl))
+    if law is None:
+        x0, state = _rolloutfrom_rest(model, mj, ctrl, nthread)
+        qpos = np.concatenate([np.repeat(x0[None, None, 1:1 + mj.nq], len(ctrl), 0), state[..., 1:1 + mj.nq]], 1)
+    else:      # eq. 3.7's force per contact (crosscheck.impedance): the model changes between steps, one robot a time
+        qpos = np.zeros((len(ctrl), nstep + 1, mj.nq))
+        for i, u in enumerate(ctrl):
+            d = from_rest(model, mj, law, i)
+            qpos[i, 0] = d.qpos
+            for s in range(nstep):
+                d.ctrl[:] = u[s]
+                step(mj, d, law, i)
+                qpos[i, s + 1] = d.qpos
     wall = _time.perf_counter() - t0
-    qpos = np.concatenate([np.repeat(x0[None, None, 1:1 + mj.nq], len(ctrl), 0), state[..., 1:1 + mj.nq]], 1)
     return _metrics(model, mj, qpos, mj.opt.timestep, delta), qpos, wall
+
 
 
 def _metrics(model, mj, qpos, dt, delta):
@@ -210,7 +223,7 @@ def mujoco_track(model, freq, amp, *, center=None, time: float, settle: float, c
     u = np.repeat(np.repeat(c[None, None], len(f), 0), nstep, 1)
     w = 2 * np.pi * f
     u[:, :, ctrl] = c[ctrl] + a * np.sin(w * t) + ratio[ctrl] * a * w * np.cos(w * t)
-    _, state = _rollout_from_rest(model, mj, u, nthread)
+    _, state = _rolloutfrom_rest(model, mj, u, nthread)
     angle = joint_angles(model, mj, state[..., 1:1 + mj.nq])[..., int(cj[ctrl])]   # [B, nstep] after each step
     t1 = (np.arange(nstep) + 1) * dt
     target = c[ctrl] + a * np.sin(w * t1)
@@ -355,7 +368,6 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     controller reads, acts and lags (``latency``: one control period) as here, whatever MuJoCo's step.
     ``observations`` and ``steer`` are then per control period.
     """
-    import mujoco
 
     from cpgjax.episode import policy as pol
 
@@ -373,11 +385,9 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     ratio = np.where(model.j_kp[cj] > 0, model.j_kd[cj] / np.maximum(model.j_kp[cj], 1e-12), 0.0)
     lim = pol.LIMITS
     leg_of = foot_geoms(model, mj)
-    datas = [mujoco.MjData(mj) for _ in range(N)]
+    law = stepper(model, mj, N)
+    datas = [from_rest(model, mj, law, i) for i in range(N)]
     q0 = initial_qpos(model, mj)
-    for d in datas:
-        d.qpos[:] = q0
-        mujoco.mj_forward(mj, d)
     qpos = np.zeros((N, nstep + 1, mj.nq))
     qpos[:, 0] = q0
     obs_log = [] if record else None
@@ -414,7 +424,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
             u_act = q + ratio[None] * dq
         for i, d in enumerate(datas):
             d.ctrl[:] = u_act[i]
-            mujoco.mj_step(mj, d)
+            step(mj, d, law, i)
             qpos[i, s + 1] = d.qpos
         if watch is not None:
             watch(s + 1, datas)

@@ -38,6 +38,8 @@ def _ctl(path, groups: str, w: float = 0.0) -> str:
     (["--ctl", "a.ctl", "--mujoco-ground", "mesh"], "--mujoco-ground: with --engine mujoco or both"),
     (["--ctl", "a.ctl", "--engine", "mujoco", "--mujoco-ground", "sand"], "argument --mujoco-ground: invalid choice"),
     (["--repertoire", "r.h5", "--mujoco-ground", "boxes"], "--mujoco-ground: with --ctl only"),
+    (["--ctl", "a.ctl", "--mujoco-contact", "per-contact"], "--mujoco-contact: with --engine mujoco or both"),
+    (["--ctl", "a.ctl", "--engine", "mujoco", "--mujoco-contact", "soft"], "argument --mujoco-contact: invalid choice"),
     (["--ctl", "a.ctl", "--engine", "mujoco", "--mujoco-dt", "0"], "argument --mujoco-dt"),
     (["--ctl", "a.ctl", "--engine", "mujoco", "--video", "VIDEO"], "--video draws our simulator's walk"),
     (["--repertoire", "r.h5", "--engine", "mujoco"], "--engine: with --ctl only"),
@@ -77,6 +79,20 @@ def test_the_walks_in_mujoco_are_measured_and_written_as_ours(tmp_path, capsys):
                                                                      ("mujoco", "points:-1,1", 0.001)]
     assert w[0]["finished"] and len(w[0]["trajectory"]) == 1 and len(w[1]["trajectory"]) == 21   # 1 s at 20 Hz
     assert w[1]["command_mean_abs"] == pytest.approx(0.3, abs=1e-9)      # the waypoint 45 deg left: clipped to 0.3
+
+
+def test_mujocos_contact_law_reaches_the_walk_and_ends_with_it(tmp_path, monkeypatch):
+    """``--mujoco-contact per-contact``: MuJoCo C's run steps under that law (crosscheck.impedance), and the
+    export's law is back once the command has ended."""
+    from cpgjax.crosscheck import engines
+    from cpgjax.crosscheck.impedance import current_law
+
+    seen, real = [], engines.stepper
+    monkeypatch.setattr(engines, "stepper", lambda *a: seen.append(current_law()) or real(*a))
+    ctl = _ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias", 1.0)
+    assert main(["follow", MODEL, "--ctl", ctl, "--path", "line:0.1", "--time", "0.2", "--engine", "mujoco",
+                 "--mujoco-dt", "0.001", "--mujoco-contact", "per-contact"]) == 0
+    assert seen == ["per-contact"] and current_law() == "resting"
 
 
 @pytest.mark.slow   # 20 s of CPU, most of it compiling our steered episode
