@@ -11,7 +11,8 @@ episodes, each with fresh perturbations drawn per robot from its own key:
 * the terrain (off by default: a heightfield is slower than the flat ground's fast path,
   docs/results/performance.md, *Where the step's time goes*): a heightfield
   of uniform roughness in ``[0, roughness]`` (0.1 m cells) added to the model's terrain, the robot
-  placed at a random spot of it;
+  placed at a random spot of it; with ``texture`` also a fine relief in ``[0, texture]`` on 2.5 cm cells, on which
+  a foot that skims the ground in its swing catches, as it does on MuJoCo's triangulated ground;
 * the robot as built: friction coefficients, each body's mass and inertia, and each servo's gains
   scaled by ``1 + U(-x, x)`` (``friction``, ``mass``, ``gain``);
 * the foot's compliance (off by default): the friction bristle's spring ``k`` (``FrictionSpring``) scaled
@@ -63,6 +64,7 @@ from cpgjax.sim.variation import Variation
 
 ROUGH_CELL = 0.1        # m: cell of the roughness heightfield
 ROUGH_SEED = 20000      # the roughness field is fixed; each robot stands at a random spot of it
+TEXTURE_CELL = 0.025    # m: cell of the texture's fine relief (``texture``)
 SHIFT = (1.5, 2.0)      # m: half-ranges of the random spot in x and y
 
 
@@ -84,6 +86,7 @@ class Perturbations:
     stiffness: float = 0.0     # relative: the ground's stiffness A (eq. 3.7)
     damping: float = 0.0       # relative: the ground's damping B (eq. 3.7)
     relief: float = 0.0        # share: the rough field's heights scaled by 1 - U(0, relief) per episode
+    texture: float = 0.0       # m: with roughness, a fine relief U(0, texture) on 2.5 cm cells added to the field
     noise: float = 0.0         # sensor noise, in each sensor's scale (sd; closed-loop controllers)
     latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
     touch: float = 0.0         # m: each touch sensor reads its foot down from a depth U(-x, x), drawn per episode
@@ -99,7 +102,8 @@ class Perturbations:
         if self.replicas < 1:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
         for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "bristle_from",
-                  "torque", "stiffness", "damping", "relief", "noise", "command", "speed", "turn_speed", "touch"):
+                  "torque", "stiffness", "damping", "relief", "noise", "command", "speed", "turn_speed", "touch",
+                  "texture"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -111,6 +115,12 @@ class Perturbations:
                              f"decades starts: it must be <= bristle ({self.bristle:g})")
         if self.relief > 1:
             raise ValueError(f"perturbation relief is a share of the roughness and must be <= 1, got {self.relief}")
+        if self.texture > 0 and self.roughness == 0:
+            raise ValueError("perturbation texture is a fine relief added to the rough field: give roughness too "
+                             "(e.g. roughness=0.04,texture=0.002)")
+        if self.texture > 0.01:
+            raise ValueError(f"perturbation texture is the fine relief's range, in m, and must be <= 0.01 (1 cm), "
+                             f"got {self.texture:g}")
         if self.touch > 0.01:
             raise ValueError(f"perturbation touch is the touch sensors' threshold, in m, and must be <= 0.01 "
                              f"(1 cm), got {self.touch:g}")
@@ -166,6 +176,8 @@ MEANING = {
     "damping": "the ground's damping scaled by 1 + U(-x, x)",
     "relief": "with roughness: each episode's ground flattened by a random share up to this, 0 to 1 (1: anywhere "
               "from flat to fully rough)",
+    "texture": "with roughness: a fine relief, heights from 0 to this on 2.5 cm cells, added to the rough field, m "
+               "(e.g. 0.002: a foot that skims the ground in its swing catches on it, as on MuJoCo's triangles)",
     "noise": "closed-loop controllers only: sensor noise, its standard deviation in each sensor's typical size",
     "latency": "closed-loop controllers only: 0 or 1 step between sensing and acting",
     "touch": "closed-loop controllers reading contact only: each leg's touch sensor reads its foot down from a depth "
@@ -184,7 +196,7 @@ MEANING = {
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
-         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0}
+         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the
@@ -212,11 +224,18 @@ def check_controller(p: Perturbations, family) -> None:
                          "pmtg:...+command+..., e.g. pmtg:tilt+contact+command+steer+bias)")
 
 
-def roughened(terrain: Terrain, roughness: float) -> Terrain:
-    """``terrain`` plus a fixed field of uniform roughness in [0, roughness] (0.1 m cells)."""
+def roughened(terrain: Terrain, roughness: float, texture: float = 0.0) -> Terrain:
+    """``terrain`` plus a fixed field of uniform roughness in [0, roughness] (0.1 m cells); with ``texture`` that
+    field sampled on 2.5 cm cells (bilinear, :data:`TEXTURE_CELL`) plus heights uniform in [0, texture] there."""
     if roughness <= 0:
         return terrain
     rough = make_terrain(f"rough:{roughness:g}:{ROUGH_CELL:g}:{ROUGH_SEED}")
+    if texture > 0:
+        fine = make_terrain(f"rough:{texture:g}:{TEXTURE_CELL:g}:{ROUGH_SEED + 1}")
+        ny, nx = fine.heights.shape
+        X, Y = np.meshgrid(fine.x0 + fine.dx * np.arange(nx), fine.y0 + fine.dy * np.arange(ny))
+        rough = Terrain(f"{rough.spec}+{fine.spec}", rough.height_np(X, Y) + fine.heights,
+                        fine.x0, fine.y0, fine.dx, fine.dy)
     if terrain.flat:
         return rough
     ny, nx = rough.heights.shape

@@ -236,7 +236,7 @@ METRICS = ("fitness", "diverged", "distance", "speed", "tilt", "fallen")
 def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, chunk: int = 256,
                    family: Family | None = None) -> Problem:
     """The robust evaluation of a built ``model`` read from ``wl_path`` (see :func:`wl_problem`)."""
-    model = model.replace(terrain=roughened(model.terrain, p.roughness))
+    model = model.replace(terrain=roughened(model.terrain, p.roughness, p.texture))
     n_ctrl, R = model.n_ctrl, p.replicas
     G = model.n_genes if family is None else family.n_genes(model)
     sensing = {} if family is None else {"latency": p.latency, "noise": p.noise}

@@ -68,7 +68,9 @@ def test_the_run_records_every_range_drawn_and_the_controller_family():
                                           ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown"),
                                           ({"speed": 0.12}, "give command too"),
                                           ({"bristle": 1.0, "bristle_from": 2.0}, "bristle_from"),
-                                          ({"touch": 0.02}, "touch .* <= 0.01"), ({"touch": -0.001}, "touch")])
+                                          ({"touch": 0.02}, "touch .* <= 0.01"), ({"touch": -0.001}, "touch"),
+                                          ({"texture": 0.002}, "give roughness too"),
+                                          ({"roughness": 0.02, "texture": 0.02}, "texture .* <= 0.01")])
 def test_bad_ranges_are_refused(bad, message):
     with pytest.raises(ValueError, match=message):
         Perturbations.from_settings(bad)
@@ -129,3 +131,20 @@ def test_a_steered_episode_is_scored_by_tracking_capped_at_the_speed_then_by_its
     capped = episode_scores(r, Perturbations(command=0.4, speed=0.15, fall_zero=True), steered=True)["fitness"]
     np.testing.assert_allclose(capped, [0.15 * share, 0.1 * share, 0.0], rtol=1e-6)
     np.testing.assert_array_equal(episode_scores(r, Perturbations())["fitness"], r["fitness"])   # eq. 4.6's, kept
+
+
+def test_the_texture_is_the_rough_field_sampled_finer_plus_a_fine_relief_in_its_range():
+    """``texture``: the roughness field on 2.5 cm cells, where it equals the field sampled there (bilinear), plus
+    heights in [0, texture]; without it the field is as before, the same array."""
+    from cpgjax.episode.perturb import TEXTURE_CELL, roughened
+    from cpgjax.sim.terrain import make_terrain
+
+    flat = make_terrain("flat")
+    coarse = roughened(flat, 0.04)
+    np.testing.assert_array_equal(roughened(flat, 0.04, 0.0).heights, coarse.heights)
+    fine = roughened(flat, 0.04, 0.002)
+    assert fine.dx == pytest.approx(TEXTURE_CELL) and fine.dy == pytest.approx(TEXTURE_CELL)
+    ny, nx = fine.heights.shape
+    X, Y = np.meshgrid(fine.x0 + fine.dx * np.arange(nx), fine.y0 + fine.dy * np.arange(ny))
+    extra = fine.heights - coarse.height_np(X, Y)
+    assert extra.min() >= -1e-9 and extra.max() <= 0.002 + 1e-9 and extra.max() > 0.0019 and extra.std() > 4e-4
