@@ -8,8 +8,8 @@ whatever the vertex carries.  MuJoCo's direct ``solref = "-k -b"`` sets a refere
 - ``resting`` (the export's default, :func:`cpgjax.crosscheck.mjcf.contact_solref`): ``k = A / m_c`` and
   ``b = B / m_c`` with ``m_c`` the mass a resting contact carries (a quarter of the quadruped, 3.45 kg).  The
   standing robot then bounces on MuJoCo's ground as on ours, but a contact whose effective mass is ``m`` meets a
-  ground ``m / m_c`` as stiff and as damped as eq. 3.7's.  The quadruped's touching feet have 0.25-3.0 kg (5-95 %,
-  the median of each foot 0.56-0.72 kg) while it trots on 2 cm: MuJoCo's ground is about five times softer for them.
+  ground ``m / m_c`` as stiff and as damped as eq. 3.7's: a walking foot's is a fraction of ``m_c``
+  (docs/crosscheck.md, *The ground's units*).
 - ``per-contact``: before every step, each contact sphere that touched at the step before gets
   ``k = A / m`` and ``b = B / m`` with ``m`` its own effective mass along the vertical, taken from MuJoCo's state
   (``mj_jac``, ``mj_solveM``): each contact's force per metre of depth is eq. 3.7's, as on our ground.  MuJoCo
