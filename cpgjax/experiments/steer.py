@@ -115,12 +115,14 @@ def walks(model_path: str, ctls: list[str], paths: list[str], *, time: float = T
 def _mujoco(model, batch, ctls, pairs, pts, time, gain, limit, reach, mujoco_dt) -> list[dict]:
     """The walks of ``pairs`` in MuJoCo C (:func:`cpgjax.crosscheck.follow.walk`), measured as ours."""
     from cpgjax.crosscheck.follow import walk as mujoco_walk
+    from cpgjax.crosscheck.impedance import current_law
 
     r = mujoco_walk(model, batch, [pts[p] for _, p in pairs], time=time, gain=gain, limit=limit, reach=reach,
                     timestep=mujoco_dt)
+    law = current_law()             # MuJoCo C's contact law (crosscheck.impedance), recorded with each walk
     out = []
     for b, (i, p) in enumerate(pairs):
         w, _ = measure(r["t"], r["waypoint"][b], r["up"][b], r["xy"][b], r["command"][b], pts[p])
         out.append({"engine": "mujoco", "ctl": ctls[i], "path": p} | w | {"gain": gain, "limit": limit,
-                                                                          "mujoco_dt": r["dt"]})
+                                                                          "mujoco_dt": r["dt"], "mujoco_contact": law})
     return out

@@ -90,9 +90,11 @@ def test_mujocos_contact_law_reaches_the_walk_and_ends_with_it(tmp_path, monkeyp
     seen, real = [], engines.stepper
     monkeypatch.setattr(engines, "stepper", lambda *a: seen.append(current_law()) or real(*a))
     ctl = _ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias", 1.0)
+    out = tmp_path / "w.json"
     assert main(["follow", MODEL, "--ctl", ctl, "--path", "line:0.1", "--time", "0.2", "--engine", "mujoco",
-                 "--mujoco-dt", "0.001", "--mujoco-contact", "per-contact"]) == 0
+                 "--mujoco-dt", "0.001", "--mujoco-contact", "per-contact", "--out", str(out)]) == 0
     assert seen == ["per-contact"] and current_law() == "resting"
+    assert json.loads(out.read_text())[0]["mujoco_contact"] == "per-contact"
 
 
 @pytest.mark.slow   # 20 s of CPU, most of it compiling our steered episode
