@@ -10,8 +10,10 @@
 #   cpgjax best runs/gif-sweep/ga_n20_mu0.2_g0.01_p4_xoff/s1.h5 --ctl models/quadruped-robust.ctl
 # (seed 1's best; its first number below is the robust score the run recorded for it).  In MuJoCo C it scored
 # 0.066 against 0.131 here, with no falls in 32 jittered replays in either engine (cpgjax transfer on its run).
-# What it does with today's code (tests/test_models.py replays each line and checks it):
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-robust.ctl  ->  walks +1.32 m in 10 s, stays up
+# What it does with today's code (tests/test_models.py replays each line and checks it).  The first line states its
+# own tolerance: the springs pipeline parts on the CPU there (+1.32 m on an AMD EPYC; on an Intel Xeon +1.40 m with
+# AVX-512 or AVX2, +1.37 m with AVX, +1.28 m with SSE4.2 only: XLA_FLAGS=--xla_cpu_max_isa=...).
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-robust.ctl  ->  walks +1.32 ±0.09 m in 10 s, stays up
 #   cpgjax simulate models/quadruped.wl --ctl models/quadruped-robust.ctl --pipeline exact  ->  walks +0.51 m in 10 s, stays up
 0.141703
 0.13278216  0.2864794  0.14180012  0.035722304  -0.23589821

@@ -14,17 +14,19 @@
 #   cpgjax best runs/steer-b/s905.h5 --ctl models/quadruped-steer.ctl
 # Chosen in our simulator alone (docs/results/steering.md, *The shipped steering gait*).  Not yet the walker of
 # docs/results/walker.md: 0.23-0.25 m/s on 2 cm here, and in MuJoCo C it falls on the circle and the figure eight.
-# What it does with today's code (tests/test_models.py replays each line and checks it).  Two lines state their own
-# tolerance: the closed loop parts on the vector unit there (+2.30 m and 42.6 s with AVX-512 or AVX2, +2.50 m and
-# 44.4 s with SSE4.2 only: XLA_FLAGS=--xla_cpu_max_isa=...); the other lines were the same on all three.
+# What it does with today's code (tests/test_models.py replays each line and checks it).  Four lines state their own
+# tolerance: the closed loop parts on the CPU and the vector unit there.  On an AMD EPYC: +2.30 m, 20.9 s, 31.9 s
+# in MuJoCo C and 42.6 s with AVX-512 or AVX2, +2.50 m and 44.4 s with SSE4.2 only (XLA_FLAGS=--xla_cpu_max_isa=...);
+# on an Intel Xeon: +2.15 m, 22.1 s and 33.4 s with AVX-512 or AVX2, +2.50 m and 21.1 s with SSE4.2.  The other
+# lines were the same on all of them.
 #   cpgjax simulate models/quadruped.wl --ctl models/quadruped-steer.ctl  ->  walks +2.87 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-steer.ctl --terrain rough:0.02:0.1:1  ->  walks +2.40 ±0.15 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-steer.ctl --terrain rough:0.02:0.1:1  ->  walks +2.32 ±0.19 m in 10 s, stays up
 #   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path line:3  ->  finished in 9.9 s, waypoints 1 of 1
 #   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path line:3 --engine mujoco  ->  finished in 18.2 s, waypoints 1 of 1
-#   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path circle:0.5  ->  finished in 20.9 s, waypoints 16 of 16
+#   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path circle:0.5  ->  finished in 21.5 ±0.7 s, waypoints 16 of 16
 #   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path circle:0.5 --engine mujoco  ->  fell at 8.4 s, waypoints 5 of 16
 #   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path square:1.0  ->  finished in 21.5 s, waypoints 4 of 4
-#   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path square:1.0 --engine mujoco  ->  finished in 31.9 s, waypoints 4 of 4
+#   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path square:1.0 --engine mujoco  ->  finished in 32.6 ±0.9 s, waypoints 4 of 4
 #   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path figure8:0.5  ->  finished in 43.5 ±1.5 s, waypoints 32 of 32
 #   cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path figure8:0.5 --engine mujoco  ->  fell at 8.4 s, waypoints 5 of 32
 0.117254

@@ -12,8 +12,9 @@ from cpgjax import cli
 # A claim's distance is written with two decimals (half a unit: 0.005 m) and varies across CPUs by the spread
 # tests/test_readme.py measured on the trot (1.4 %, its tolerance 3 %): both together.
 RTOL, ATOL = 0.03, 0.005
-# A claim may state its own tolerance, measured across vector units where a chaotic closed loop parts on them
-# ("walks +2.40 ±0.15 m in 10 s": AVX-512 and AVX2 gave one figure, SSE4.2 another): then that, not RTOL, applies.
+# A claim may state its own tolerance, measured across CPUs and vector units where a chaotic walk parts on them
+# ("walks +2.32 ±0.19 m in 10 s": an AMD EPYC and an Intel Xeon, each with AVX-512, AVX2 and SSE4.2, gave +2.15 to
+# +2.50 m): then that, not RTOL, applies.
 CLAIM = re.compile(r"(?P<verb>[a-z]+) (?P<dist>[-+]\d+\.\d\d)(?: ±(?P<tol>\d+\.\d+))? m(?P<what>[^,]*), "
                    r"(?P<fall>stays up|falls)$")
 SIMULATE_TAKES = ("--ctl", "--time", "--terrain", "--pipeline", "--dt", "--gravity", "--delta")
