@@ -217,24 +217,25 @@ def compare_runs(paths, *, terrain: str, mujoco_dt: float, per_run: int = 6, pip
             if replays:
                 g.ours["replays"] = g.mujoco["replays"] = replays
                 (g.ours["falls"], g.ours["speed_median"]), (g.mujoco["falls"], g.mujoco["speed_median"]) = \
-                    _jittered_falls(model.replace(**changes) if changes else model, family, picked[i][1], T,
-                                    mujoco_dt, replays)
+                    _jittered_falls(model, family, picked[i][1], T, mujoco_dt, replays,
+                                    ours=model.replace(**changes) if changes else None)
             out.append(g)
             if progress is not None:
                 progress(g)
     return out
 
 
-def _jittered_falls(model, family, genome, time, mujoco_dt, replays):
+def _jittered_falls(model, family, genome, time, mujoco_dt, replays, ours=None):
     """(falls, median speed) of ``replays`` jittered copies of one gait here, and in MuJoCo C (``cpgjax transfer``'s
-    draws)."""
+    draws); ``ours``: our side's model where it differs from ``model`` (:func:`compare_runs`'s ``ours``), MuJoCo C
+    exporting ``model`` whatever it is."""
     from cpgjax.crosscheck.engines import mujoco_run
     from cpgjax.crosscheck.transfer import jittered
     from cpgjax.episode.batch import simulate
     from cpgjax.episode.policy import from_genomes
 
     C = from_genomes(family, model, jittered(genome, replays)[1:])
-    here = simulate(model, C, time=time)
+    here = simulate(model if ours is None else ours, C, time=time)
     there, _, _ = mujoco_run(model, C, time=time, mj=load(model, timestep=mujoco_dt))
     return ((int(np.asarray(here["fallen"]).sum()), float(np.median(np.asarray(here["speed"])))),
             (int(np.asarray(there["fallen"]).sum()), float(np.median(np.asarray(there["speed"])))))

@@ -147,3 +147,27 @@ def test_a_controller_file_is_refused_in_one_line(capsys):
     one_line_error(capsys.readouterr().err, "agreement", expect=("run files", "cpgjax crosscheck"))
     assert cli.main(["agreement", "x.h5", "--mujoco-stiffness", "0"]) == 2
     one_line_error(capsys.readouterr().err, "agreement", expect=("--mujoco-stiffness", "> 0"))
+
+
+def test_a_change_to_our_side_stays_on_our_side_in_the_jittered_replays(monkeypatch):
+    """``compare_runs(ours=...)``: the jittered replays here run the changed model, MuJoCo C's export the run's own
+    (a field the export reads, such as the friction coefficient, would otherwise change MuJoCo's side too)."""
+    from types import SimpleNamespace
+
+    from cpgjax.crosscheck import agreement, engines
+    from cpgjax.crosscheck import transfer as tr
+    from cpgjax.episode import batch, policy
+
+    seen = {}
+    monkeypatch.setattr(tr, "jittered", lambda g, n: np.zeros((n + 1, 1)))
+    monkeypatch.setattr(policy, "from_genomes", lambda fam, m, g: g)
+    monkeypatch.setattr(batch, "simulate", lambda m, c, time: seen.update(here=m) or
+                        {"fallen": np.zeros(2, bool), "speed": np.ones(2)})
+    monkeypatch.setattr(engines, "mujoco_run", lambda m, c, time, mj: seen.update(there=m) or
+                        ({"fallen": np.zeros(2, bool), "speed": np.ones(2)}, None, None))
+    monkeypatch.setattr(agreement, "load", lambda m, timestep: None)
+    run, ours = SimpleNamespace(name="run"), SimpleNamespace(name="ours")
+    agreement._jittered_falls(run, None, np.zeros(1), 1.0, 0.001, 2, ours=ours)
+    assert seen == {"here": ours, "there": run}
+    agreement._jittered_falls(run, None, np.zeros(1), 1.0, 0.001, 2)
+    assert seen == {"here": run, "there": run}
