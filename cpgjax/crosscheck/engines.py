@@ -81,7 +81,7 @@ def joint_angles(model, mj, qpos):
     return qpos[..., adr]
 
 
-def _rolloutfrom_rest(model, mj, ctrl: np.ndarray, nthread: int | None):
+def _rollout_from_rest(model, mj, ctrl: np.ndarray, nthread: int | None):
     """(x0, states [N, nstep, ...]): MuJoCo C's threaded rollout of controls [N, nstep, nu] from the initial pose."""
     import os
 
@@ -116,7 +116,7 @@ def mujoco_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, time
     t0 = _time.perf_counter()
     law = stepper(model, mj, len(ctrl))
     if law is None:
-        x0, state = _rolloutfrom_rest(model, mj, ctrl, nthread)
+        x0, state = _rollout_from_rest(model, mj, ctrl, nthread)
         qpos = np.concatenate([np.repeat(x0[None, None, 1:1 + mj.nq], len(ctrl), 0), state[..., 1:1 + mj.nq]], 1)
     else:      # eq. 3.7's force per contact (crosscheck.impedance): the model changes between steps, one robot a time
         qpos = np.zeros((len(ctrl), nstep + 1, mj.nq))
@@ -129,7 +129,6 @@ def mujoco_run(model, coeffs, *, time: float, delta: float = DEFAULT_DELTA, time
                 qpos[i, s + 1] = d.qpos
     wall = _time.perf_counter() - t0
     return _metrics(model, mj, qpos, mj.opt.timestep, delta), qpos, wall
-
 
 
 def _metrics(model, mj, qpos, dt, delta):
@@ -223,7 +222,7 @@ def mujoco_track(model, freq, amp, *, center=None, time: float, settle: float, c
     u = np.repeat(np.repeat(c[None, None], len(f), 0), nstep, 1)
     w = 2 * np.pi * f
     u[:, :, ctrl] = c[ctrl] + a * np.sin(w * t) + ratio[ctrl] * a * w * np.cos(w * t)
-    _, state = _rolloutfrom_rest(model, mj, u, nthread)
+    _, state = _rollout_from_rest(model, mj, u, nthread)
     angle = joint_angles(model, mj, state[..., 1:1 + mj.nq])[..., int(cj[ctrl])]   # [B, nstep] after each step
     t1 = (np.arange(nstep) + 1) * dt
     target = c[ctrl] + a * np.sin(w * t1)
@@ -368,7 +367,6 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     controller reads, acts and lags (``latency``: one control period) as here, whatever MuJoCo's step.
     ``observations`` and ``steer`` are then per control period.
     """
-
     from cpgjax.episode import policy as pol
 
     mj = mj if mj is not None else load(model, timestep=timestep)
