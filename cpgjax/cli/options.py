@@ -226,7 +226,8 @@ def controller_option(p: argparse.ArgumentParser) -> None:
                         "docs/glossary.md)")
 
 
-TERRAIN_HELP = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
+TERRAIN_HELP = ("flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]] | stairs:RISE:TREAD[:N] "
+                "| bar:HEIGHT@Y[:DEPTH] | gap:WIDTH@Y | course:ITEM,ITEM,... (docs/wl-format.md §3.1)")
 
 # --- the options many commands share, each declared here once ----------------------------------------
 # (a command passes what its default is, when that differs: a run's recorded setting, or a fixed number)

@@ -169,8 +169,10 @@ def table(rows, summary, engines) -> str:
     if summary.get("mujoco_dt", MJ_TIMESTEP) != MJ_TIMESTEP:
         lines.append(f"MuJoCo C's step {summary['mujoco_dt'] * 1e3:g} ms (the export's {MJ_TIMESTEP * 1e3:g} ms).")
     if summary.get("terrain", "flat") != "flat":
-        lines.append(f"Terrain {summary['terrain']}; MuJoCo's heightfield samples the same surface "
-                     "(crosscheck/mjcf.py: hfield_grid).")
+        ledges = summary["terrain"].split(":")[0] in ("stairs", "bar", "gap")
+        lines.append(f"Terrain {summary['terrain']}; " + ("MuJoCo's ground is boxes of the same profile "
+                     "(crosscheck/ground.py: ledge_boxes)." if ledges else "MuJoCo's heightfield samples the same "
+                     "surface (crosscheck/mjcf.py: hfield_grid)."))
     falls = ", ".join(f"{e} {summary[f'falls_{e}']}" for e in engines if f"falls_{e}" in summary)
     lines.append(f"{summary['n']} controllers, {summary['time']:g} s each; fell: {falls}.  Spearman rank correlation "
                  "(95 % bootstrap interval over the controllers):")

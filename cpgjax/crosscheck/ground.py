@@ -153,3 +153,68 @@ def add_ground(asset, world, model, form: str, grid, *, radius: float, attrs: di
     inner = pit[iy[0] + 1:iy[1], ix[0] + 1:ix[1]]
     inner[...] = H.min() - PIT
     hfield_geom(asset, world, (pit, x0, y0, dx, dy), radius=radius, attrs=attrs)
+
+
+LEDGE_X = 5.0        # m: a ledge box's half-width across the path (the walking area is x -3..3)
+LEDGE_Y = (-5.0, 15.0)   # m: the first and last level reach this far along the path (the walking area: y -3..12)
+LEDGE_BASE = 0.1     # m: how far the boxes reach below the lowest level
+
+
+def ledge_boxes(world, ledges, *, radius: float, attrs: dict) -> None:
+    """A ground of ledges (:mod:`cpgjax.sim.ledges`) as one box per level into the MJCF ``world`` element: the solid
+    our vertices meet, shrunk by the foot spheres' ``radius`` (the tops ``radius`` lower, and a riser's face
+    ``radius`` further into the higher level), so that a sphere's centre touches it where our vertex touches the
+    profile (but at a riser's top edge, which the sphere rolls over on a radius).  A level's box reaches under a
+    higher neighbour by ``radius`` as well: no seam."""
+    e = np.concatenate([[LEDGE_Y[0]], np.asarray(ledges.edges, float), [LEDGE_Y[1]]])
+    lv = np.asarray(ledges.levels, float)
+    bottom = lv.min() - radius - LEDGE_BASE
+    for i, top in enumerate(lv):
+        lo, hi = e[i], e[i + 1]
+        if i > 0:
+            lo += radius if lv[i - 1] < top else -radius
+        if i < len(lv) - 1:
+            hi += -radius if lv[i + 1] < top else radius
+        zt = top - radius
+        ET.SubElement(world, "geom", name=f"ledge{i}", type="box",
+                      size=f"{LEDGE_X:.9g} {(hi - lo) / 2:.9g} {(zt - bottom) / 2:.9g}",
+                      pos=_f([0.0, (lo + hi) / 2, (zt + bottom) / 2]), **attrs)
+
+
+def course_ground(asset, world, terrain, spans, *, radius: float, attrs: dict, sub: int = 4) -> None:
+    """A course with rough items (:mod:`cpgjax.sim.course`) into the MJCF ``asset`` and ``world`` elements: the ledges'
+    boxes (:func:`ledge_boxes`), cut at each rough item's ``spans`` (y from, to) and :data:`PIT` lower there, and over
+    each item a heightfield of our surface sampled ``sub`` times per cell, a radius beyond the item's ends, where
+    the boxes beside it end (a radius short of an end where the ground beyond it drops; ``radius`` lower than ours,
+    as every form)."""
+    led = terrain.ledges
+    edges, levels = list(np.asarray(led.edges, float)), list(np.asarray(led.levels, float))
+    tops = list(levels)
+    for a, b in spans:                       # each span as a piece of its own, PIT lower
+        for y in (a, b):
+            if np.isclose(edges, y, rtol=0, atol=1e-9).any():
+                continue
+            i = int(np.searchsorted(edges, y, side="right"))
+            edges.insert(i, y)
+            levels.insert(i, levels[i])
+            tops.insert(i, tops[i])
+        i = int(np.searchsorted(edges, a, side="right"))
+        tops[i] = levels[i] - PIT
+    from cpgjax.sim.ledges import Ledges
+
+    ledge_boxes(world, Ledges(np.asarray(edges), np.asarray(tops)), radius=radius, attrs=attrs)
+    for k, (a, b) in enumerate(spans):
+        inside = float(led.level_np((a + b) / 2))             # a radius beyond each end, unless the ground drops
+        y0 = a - (radius if led.level_np(a - 1e-6) >= inside else -radius)
+        y1 = b + (radius if led.level_np(b + 1e-6) >= inside else -radius)
+        ny = int(np.ceil((y1 - y0) / terrain.dy * sub)) + 1
+        nx = int(np.ceil((LEDGE_X * 2) / terrain.dx * sub)) + 1
+        ys, xs = np.linspace(y0, y1, ny), np.linspace(-LEDGE_X, LEDGE_X, nx)
+        X, Y = np.meshgrid(xs, ys)
+        H = terrain.height_np(X, np.clip(Y, a, b))            # beyond the item: its level (the rough part is 0 there)
+        hmin, span = float(H.min()), max(float(H.max() - H.min()), 1e-6)
+        ET.SubElement(asset, "hfield", name=f"rough{k}", nrow=str(ny), ncol=str(nx),
+                      size=f"{LEDGE_X:.9g} {(y1 - y0) / 2:.9g} {span:.9g} 0.1",
+                      elevation=" ".join(f"{v:.7g}" for v in ((H - hmin) / span)[::-1].ravel()))
+        ET.SubElement(world, "geom", name=f"rough{k}", type="hfield", hfield=f"rough{k}",
+                      pos=f"0 {(y0 + y1) / 2:.9g} {hmin - radius:.9g}", **attrs)

@@ -16,7 +16,8 @@ How the penalty model maps onto MuJoCo's:
 - terrain: a plane when flat, else an ``hfield`` sampled from our bilinear surface on a grid
   ``hfield_sub`` times finer than ours (MuJoCo triangulates each cell; see ``hfield_grid``); either
   lies ``CONTACT_RADIUS`` below our ground, so that a sphere's lowest point rests where our vertex does.
-  ``ground="mesh"`` or ``"boxes"`` gives the same surface as convex pieces instead (:mod:`cpgjax.crosscheck.ground`).
+  ``ground="mesh"`` or ``"boxes"`` gives the same surface as convex pieces instead (:mod:`cpgjax.crosscheck.ground`);
+  ledges (stairs, a bar, a gap: ``sim.ledges``) are boxes, shrunk by the same radius (``ground.ledge_boxes``).
 
 Why 1 cm spheres, not points: MuJoCo's soft contact lets a loaded foot sink 1.9 mm (median; 5.9 mm at the 99th
 percentile) while the quadruped trots on flat ground, and a heightfield is a union of triangular prisms, each
@@ -36,7 +37,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from cpgjax.crosscheck.ground import add_ground, check_form, current_form, hfield_geom
+from cpgjax.crosscheck.ground import add_ground, check_form, course_ground, current_form, hfield_geom, ledge_boxes
+from cpgjax.sim.course import rough_spans
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
 from cpgjax.sim.terrain import EXTENT_X, EXTENT_Y
 
@@ -165,6 +167,12 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CON
     if t.flat:
         ET.SubElement(world, "geom", name="ground", type="plane", size="20 20 0.1", pos=f"0 0 {-r:.9g}", contype="1",
                       conaffinity="1", friction=f"{mu:g} 0.005 0.0001", solref=solref, rgba=".8 .8 .8 1")
+    elif t.heights is None:                 # ledges alone: boxes, whatever the form
+        ledge_boxes(world, t.ledges, radius=r, attrs=attrs)
+    elif t.ledges is not None:              # a course with rough items: boxes and a heightfield over each
+        if not t.spec.startswith("course:") or "+" in t.spec:
+            raise ValueError(f"terrain {t.spec!r}: MuJoCo's export has no form for a heightfield with ledges")
+        course_ground(asset, world, t, rough_spans(t.spec), radius=r, attrs=attrs)
     elif form == "hfield":
         hfield_geom(asset, world, hfield_grid(t, hfield_sub), radius=r, attrs=attrs)
     else:

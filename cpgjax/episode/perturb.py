@@ -27,7 +27,7 @@ episodes, each with fresh perturbations drawn per robot from its own key:
   A and damping B (eq. 3.7, where MuJoCo's contact differs from ours) by ``1 + U(-x, x)`` (``stiffness``,
   ``damping``); the rough field's relief (``relief``): its heights scaled by ``1 - U(0, relief)`` per episode, so
   that with ``relief=1`` an episode's ground is anywhere from flat to ``roughness`` rough, at a random spot of the
-  field;
+  field (on stairs, a bar or a gap, ``sim.ledges``, their heights too, with or without ``roughness``);
 * (closed-loop controllers, :mod:`cpgjax.episode.policy`) the sensors: noise of ``noise`` times each sensor's
   scale (standard deviation), drawn per robot and step, and a ``latency`` of 0 or 1 step between the observation
   and the action;
@@ -174,8 +174,8 @@ MEANING = {
     "torque": "each servo's torque limit scaled by 1 + U(-x, x)",
     "stiffness": "the ground's stiffness scaled by 1 + U(-x, x)",
     "damping": "the ground's damping scaled by 1 + U(-x, x)",
-    "relief": "with roughness: each episode's ground flattened by a random share up to this, 0 to 1 (1: anywhere "
-              "from flat to fully rough)",
+    "relief": "with roughness, or on stairs, a bar or a gap: each episode's ground flattened by a random share up "
+              "to this, 0 to 1 (1: anywhere from flat to fully rough, or stairs from none to full height)",
     "texture": "with roughness: a fine relief, heights from 0 to this on 2.5 cm cells, added to the rough field, m "
                "(e.g. 0.002: a foot that skims the ground in its swing catches on it, as on MuJoCo's triangles)",
     "noise": "closed-loop controllers only: sensor noise, its standard deviation in each sensor's typical size",
@@ -240,8 +240,9 @@ def roughened(terrain: Terrain, roughness: float, texture: float = 0.0) -> Terra
         return rough
     ny, nx = rough.heights.shape
     X, Y = np.meshgrid(rough.x0 + rough.dx * np.arange(nx), rough.y0 + rough.dy * np.arange(ny))
-    return Terrain(f"{terrain.spec}+{rough.spec}", terrain.height_np(X, Y) + rough.heights,
-                   rough.x0, rough.y0, rough.dx, rough.dy)
+    field = Terrain(terrain.spec, terrain.heights, terrain.x0, terrain.y0, terrain.dx, terrain.dy)   # no ledges
+    return Terrain(f"{terrain.spec}+{rough.spec}", field.height_np(X, Y) + rough.heights,
+                   rough.x0, rough.y0, rough.dx, rough.dy, ledges=terrain.ledges)
 
 
 def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
@@ -268,7 +269,7 @@ def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
     for i, (f, shape) in enumerate((("torque", (model.n_ctrl,)), ("stiffness", ()), ("damping", ()))):
         if getattr(p, f) > 0:
             more[f] = 1.0 + u(jax.random.fold_in(key, 9 + i), shape, getattr(p, f))
-    if p.relief > 0 and p.roughness > 0:
+    if p.relief > 0 and (p.roughness > 0 or model.terrain.ledges is not None):
         more["relief"] = 1.0 - 0.5 * p.relief * (1.0 + u(jax.random.fold_in(key, 12), (), 1.0))
     return (Variation(friction=1.0 + u(ks[2], (), p.friction), mass=1.0 + u(ks[3], (model.nb,), p.mass),
                       gain=1.0 + u(ks[4], (model.n_ctrl,), p.gain), shift=shift,

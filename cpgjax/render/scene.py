@@ -21,7 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cpgjax.crosscheck.ground import course_ground, ledge_boxes
 from cpgjax.render.poses import Poses, contact_points, rotations, touching
+from cpgjax.sim.course import rough_spans
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
 
 CAMERAS = ("track", "fixed", "side")
@@ -120,6 +122,12 @@ def scene_xml(model, width: int, height: int, *, cell: float = 0.1) -> str:
     if t.flat:
         ET.SubElement(world, "geom", name="ground", type="plane", size="0 0 0.05", material="ground", group="0",
                       contype="0", conaffinity="0")
+    elif t.ledges is not None:             # ledges (and a course's rough items): the export's, not lowered
+        looks = dict(material="ground", group="0", contype="0", conaffinity="0")
+        if t.heights is None:
+            ledge_boxes(world, t.ledges, radius=0.0, attrs=looks)
+        else:
+            course_ground(asset, world, t, rough_spans(t.spec), radius=0.0, attrs=looks)
     else:
         ny, nx = t.heights.shape
         hmin, hmax = float(t.heights.min()), float(t.heights.max())

@@ -25,6 +25,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.sim.ledges import riser_exit
 from cpgjax.sim.rotation import cross, dot, matTvec
 from cpgjax.sim.terrain import height_and_normal
 
@@ -111,10 +112,28 @@ def contact_frame(model, cp, var):
     if model.terrain.flat:  # fast path: z_g = 0, n = (0, 0, 1), no lookup
         return -cp[2], _Frame()
     zg, n = terrain_under(model, cp[0], cp[1], var)
+    if model.terrain.ledges is not None:
+        return _ledge_frame(model, cp, zg, n, var)
     n = jnp.stack(n)
     inv = 1.0 / jnp.sqrt(n[0] ** 2 + n[2] ** 2)
     t1 = jnp.stack([n[2] * inv, jnp.zeros_like(zg), -n[0] * inv])
     return (zg - cp[2]) * n[2], _Frame(n, t1, cross(n, t1))
+
+
+def _ledge_frame(model, cp, zg, n, var):
+    """:func:`contact_frame` on a ground with ledges (`sim.ledges`): a vertex under a tread leaves by the nearer
+    of the tread (depth along the surface's normal, as on a heightfield) and a riser beside it (depth along y,
+    the normal horizontal).  The tangent t1 is x made orthogonal to the normal (x itself on a riser)."""
+    sy = 0.0 if var is None else var.shift[1]
+    scale = 1.0 if var is None or var.relief is None else var.relief
+    up = (zg - cp[2]) * n[2]
+    side, sign = riser_exit(model.terrain.ledges, cp[1] + sy, cp[2], zg, scale)
+    riser = (up > 0) & (side < up)
+    zero = jnp.zeros_like(up)
+    n = jnp.stack([jnp.where(riser, zero, n[0]), jnp.where(riser, sign, n[1]), jnp.where(riser, zero, n[2])])
+    t1 = jnp.stack([1.0 - n[0] * n[0], -n[0] * n[1], -n[0] * n[2]])
+    t1 = t1 / jnp.sqrt(jnp.sum(t1 * t1, 0))
+    return jnp.where(riser, side, up), _Frame(n, t1, cross(n, t1))
 
 
 def terrain_under(model, x, y, var=None):

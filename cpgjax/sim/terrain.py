@@ -11,7 +11,10 @@ Kinds (CLI syntax ``--terrain``, `.wl` syntax ``Terrain``; docs/wl-format.md §3
 - ``rough:RANGE[:CELL[:SEED]]``: heights uniform in [0, RANGE] m (RANGE >= 0) on a grid of
   CELL m (default 0.1 m, 0.005 <= CELL <= 3), seeded (an integer >= 0, default 0)
   (thesis Ch. 6.4, Fig. 6.14);
-- ``matrix``: an explicit height matrix from a `.wl` file.
+- ``matrix``: an explicit height matrix from a `.wl` file;
+- ``stairs:RISE:TREAD[:N]``, ``bar:HEIGHT@Y[:DEPTH]``, ``gap:WIDTH@Y``: vertical faces across the path
+  (:mod:`cpgjax.sim.ledges`), not a heightfield;
+- ``course:ITEM,ITEM,...``: grounds chained along the path (:mod:`cpgjax.sim.course`).
 
 Outside the matrix the height of the nearest edge is used.
 
@@ -31,7 +34,10 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.sim import course as _course
+from cpgjax.sim import ledges as _ledges
 from cpgjax.sim.description import TerrainDef
+from cpgjax.sim.ledges import Ledges
 
 EXTENT_X = (-3.0, 3.0)
 EXTENT_Y = (-3.0, 12.0)
@@ -39,7 +45,8 @@ EXTENT_Y = (-3.0, 12.0)
 
 @dataclass(eq=False, frozen=True)
 class Terrain:
-    """A heightfield: heights[iy, ix] at x = x0 + ix*dx, y = y0 + iy*dy; ``None`` for flat."""
+    """A heightfield: heights[iy, ix] at x = x0 + ix*dx, y = y0 + iy*dy (``None``: none), and vertical faces across
+    the path added to it (``ledges``, :mod:`cpgjax.sim.ledges`; ``None``: none).  Neither: flat."""
 
     spec: str = "flat"
     heights: np.ndarray | None = None
@@ -47,10 +54,11 @@ class Terrain:
     y0: float = 0.0
     dx: float = 1.0
     dy: float = 1.0
+    ledges: Ledges | None = None
 
     @property
     def flat(self) -> bool:
-        return self.heights is None
+        return self.heights is None and self.ledges is None
 
     def height_np(self, x, y):
         """Heights at numpy points (for plotting and exports)."""
@@ -69,9 +77,12 @@ def _grid(extent_x, extent_y, cell):
 
 #: The command-line syntax of a terrain (``--terrain``); the `.wl` ``Terrain`` statement has the
 #: same kinds and parameters, written as separate numbers (docs/wl-format.md §3.1).
-TERRAIN_SYNTAX = "flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]]"
-TERRAIN_KINDS = ("flat", "ramp", "bump", "rough", "matrix")
-_EXAMPLES = {"flat": "flat", "ramp": "ramp:0.1", "bump": "bump:0.02@1.0:0.3", "rough": "rough:0.02:0.1:7"}
+TERRAIN_SYNTAX = ("flat | ramp:SLOPE[:X|Y] | bump:HEIGHT[@Y][:WIDTH] | rough:RANGE[:CELL[:SEED]] | "
+                  "stairs:RISE:TREAD[:N] | bar:HEIGHT@Y[:DEPTH] | gap:WIDTH@Y | course:ITEM,ITEM,...")
+TERRAIN_KINDS = ("flat", "ramp", "bump", "rough", "matrix", "stairs", "bar", "gap", "course")
+_EXAMPLES = {"flat": "flat", "ramp": "ramp:0.1", "bump": "bump:0.02@1.0:0.3", "rough": "rough:0.02:0.1:7",
+             "stairs": "stairs:0.04:0.3:5", "bar": "bar:0.03@1.0:0.05", "gap": "gap:0.1@1.0",
+             "course": "course:flat:1,rough:0.02:2,stairs:0.04:0.3:3,bar:0.03,flat:1"}
 BUMP_CELL = 0.01  # m: the grid of a bump along y
 BUMP_WIDTH = (BUMP_CELL, 100.0)  # m: a bump narrower than its grid cell could fall between two rows
 BUMP_MAX_Y = 1000.0  # m: |Y|; beyond, y + WIDTH rounds to y in float64
@@ -94,7 +105,11 @@ def check_terrain(kind: str, params=(), axis: str = "Y", heights=None, line: int
     axis = str(axis).upper()
     if kind not in TERRAIN_KINDS:
         raise ValueError(f"unknown terrain kind {kind!r}; expected one of {', '.join(TERRAIN_KINDS)}")
-    counts = {"flat": (0, 0), "ramp": (1, 1), "bump": (1, 3), "rough": (1, 3), "matrix": (6, 6)}[kind]
+    if kind == "course":
+        _course.check_items(_course.decode(p))
+        return TerrainDef(kind, p, line=line)
+    counts = {"flat": (0, 0), "ramp": (1, 1), "bump": (1, 3), "rough": (1, 3), "matrix": (6, 6), "stairs": (2, 3),
+              "bar": (2, 3), "gap": (2, 2)}[kind]
     if not counts[0] <= len(p) <= counts[1]:
         raise ValueError(f"{kind} terrain takes {counts[0]} to {counts[1]} parameters, got {len(p)}")
     if not all(math.isfinite(v) for v in p):
@@ -125,6 +140,8 @@ def check_terrain(kind: str, params=(), axis: str = "Y", heights=None, line: int
                                  f"{EXTENT_Y[1]:g}), got {p[1]:g}")
         if len(p) > 2 and (p[2] < 0 or not p[2].is_integer()):
             raise ValueError(f"rough SEED must be a non-negative integer, got {_g(p[2])}")
+    elif kind in ("stairs", "bar", "gap"):
+        _check_ledges(kind, p)
     elif kind == "matrix":
         if not (p[0].is_integer() and p[1].is_integer()) or p[0] < 2 or p[1] < 2:
             raise ValueError(f"matrix needs NX >= 2 and NY >= 2 grid points, got {_g(p[0])} x {_g(p[1])}")
@@ -140,6 +157,15 @@ def check_terrain(kind: str, params=(), axis: str = "Y", heights=None, line: int
                 raise ValueError("matrix heights must be finite numbers")
             heights = tuple(rows)
     return TerrainDef(kind, p, heights=heights, axis=axis if kind == "ramp" else "Y", line=line)
+
+
+def _check_ledges(kind: str, p: tuple[float, ...]) -> None:
+    if kind == "stairs":
+        _ledges.check(kind, p)
+        return
+    _ledges.check(kind, (p[0], *p[2:]))
+    if abs(p[1]) > BUMP_MAX_Y:
+        raise ValueError(f"{kind} Y must be within +-{BUMP_MAX_Y:g} m, got {p[1]:g}")
 
 
 def _spec_number(tok: str, what: str) -> float:
@@ -182,6 +208,29 @@ def parse_terrain(spec: str) -> TerrainDef:
             hstr, _, ystr = head.partition("@")
             p = [_spec_number(hstr, "bump HEIGHT"), _spec_number(ystr, "bump Y") if ystr else 1.0,
                  _spec_number(width, "bump WIDTH") if width else 0.3]
+        elif kind == "course":
+            p = list(_course.encode(_course.parse_items(rest)))
+        elif kind == "stairs":
+            parts = rest.split(":")
+            if not 2 <= len(parts) <= 3:
+                raise ValueError(f"stairs takes RISE:TREAD[:N], got {len(parts)} parameters")
+            p = [_spec_number(parts[0], "stairs RISE"), _spec_number(parts[1], "stairs TREAD")]
+            if len(parts) > 2:
+                p.append(_spec_number(parts[2], "stairs N"))
+        elif kind in ("bar", "gap"):
+            head, _, depth = rest.partition(":")
+            size, at, ystr = head.partition("@")
+            what = "HEIGHT" if kind == "bar" else "WIDTH"
+            if not at:
+                raise ValueError(f"{kind} takes {what}@Y" + ("[:DEPTH]" if kind == "bar" else "") +
+                                 ": where it stands along the path is not optional")
+            if depth and kind == "gap":
+                raise ValueError("gap takes WIDTH@Y, got more parameters")
+            if ":" in depth:
+                raise ValueError("bar takes HEIGHT@Y[:DEPTH], got more parameters")
+            p = [_spec_number(size, f"{kind} {what}"), _spec_number(ystr, f"{kind} Y")]
+            if depth:
+                p.append(_spec_number(depth, "bar DEPTH"))
         else:  # rough
             parts = rest.split(":")
             if len(parts) > 3:
@@ -203,6 +252,10 @@ def terrain_spec(tdef: TerrainDef) -> str:
         return f"bump:{p[0]}" + (f"@{p[1]}" if len(p) > 1 else "") + (f":{p[2]}" if len(p) > 2 else "")
     if kind == "ramp":
         return f"ramp:{p[0]}:{tdef.axis}"
+    if kind in ("bar", "gap"):
+        return f"{kind}:{p[0]}@{p[1]}" + (f":{p[2]}" if len(p) > 2 else "")
+    if kind == "course":
+        return "course:" + _course.text(_course.decode(tdef.params))
     return ":".join([kind, *p]) if kind != "matrix" else "matrix"
 
 
@@ -223,6 +276,18 @@ def make_terrain(spec: str | TerrainDef | None) -> Terrain:
         nx, ny, x0, x1, y0, y1 = p
         h = np.asarray(tdef.heights, float).reshape(int(ny), int(nx))
         return Terrain("matrix", h, x0, y0, (x1 - x0) / max(int(nx) - 1, 1), (y1 - y0) / max(int(ny) - 1, 1))
+    if kind == "course":
+        xs, ys = _grid(EXTENT_X, EXTENT_Y, _course.ROUGH_CELL)
+        led, rough, _ = _course.build(_course.decode(p), xs, ys)
+        if rough is None:
+            return Terrain(text, ledges=led)
+        return Terrain(text, rough, xs[0], ys[0], xs[1] - xs[0], ys[1] - ys[0], ledges=led)
+    if kind == "stairs":
+        return Terrain(text, ledges=_ledges.stairs(p[0], p[1], int(p[2]) if len(p) > 2 else _ledges.STAIRS_N))
+    if kind == "bar":
+        return Terrain(text, ledges=_ledges.bar(*p))
+    if kind == "gap":
+        return Terrain(text, ledges=_ledges.gap(*p))
     if kind == "ramp":
         xs, ys = _grid(EXTENT_X, EXTENT_Y, 0.5)
         coord = xs[None, :] if tdef.axis == "X" else ys[:, None]
@@ -264,10 +329,14 @@ def start_lift(terrain: Terrain, points) -> float:
 
 
 def height_and_normal(terrain: Terrain, x, y):
-    """Height z_g(x, y) and unit surface normal (3-tuple) by bilinear interpolation."""
+    """Height z_g(x, y) and unit surface normal (3-tuple) by bilinear interpolation, plus the ledges' level
+    (:mod:`cpgjax.sim.ledges`: the tread's, whose normal is vertical)."""
     if terrain.flat:
         z = jnp.zeros_like(x)
         return z, (z, z, z + 1.0)
+    if terrain.heights is None:
+        z = jnp.zeros_like(x)
+        return z + _ledges.ledge_level(terrain.ledges, y), (z, z, z + 1.0)
     h = jnp.asarray(terrain.heights, dtype=x.dtype)
     ny, nx = terrain.heights.shape
     u = jnp.clip((x - terrain.x0) / terrain.dx, 0.0, nx - 1.000001)
@@ -283,4 +352,6 @@ def height_and_normal(terrain: Terrain, x, y):
     gx = ((1 - fy) * (h01 - h00) + fy * (h11 - h10)) / terrain.dx
     gy = ((1 - fx) * (h10 - h00) + fx * (h11 - h01)) / terrain.dy
     inv = jnp.reciprocal(jnp.sqrt(1.0 + gx * gx + gy * gy))
+    if terrain.ledges is not None:
+        z = z + _ledges.ledge_level(terrain.ledges, y)
     return z, (-gx * inv, -gy * inv, inv)

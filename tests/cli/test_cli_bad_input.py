@@ -92,6 +92,12 @@ ROWS = [
     ("terrain-bump-width-0", ["simulate", M, "--terrain", "bump:0.1:0"], ["--terrain", "bump:0.1:0"]),
     ("terrain-rough-cell-0", ["evolve", M, "--terrain", "rough:0.01:0", "--out", "o.h5"],
      ["--terrain", "rough:0.01:0"]),
+    ("terrain-stairs-negative-tread", ["simulate", M, "--terrain", "stairs:0.04:-0.3"],
+     ["--terrain", "stairs TREAD must be between 0.05 and 3 m, got -0.3"]),
+    ("terrain-stairs-taller-than-the-leg", ["evolve", M, "--terrain", "stairs:0.4:0.3", "--out", "o.h5"],
+     ["--terrain", "stairs RISE", "0.32 m", "got 0.4"]),
+    ("terrain-bar-without-y", ["simulate", M, "--terrain", "bar:0.03"], ["--terrain", "bar takes HEIGHT@Y"]),
+    ("terrain-gap-too-wide", ["simulate", M, "--terrain", "gap:3@1"], ["--terrain", "gap WIDTH", "got 3"]),
     # outputs that cannot be written (checked before any work)
     ("evolve-out-under-file", ["evolve", M, "--time", "0.1", "--out", "afile/o.h5"], ["afile/o.h5", "afile"]),
     ("evolve-out-is-folder", ["evolve", M, "--time", "0.1", "--out", "adir"], ["adir"]),

@@ -44,7 +44,7 @@ TOP_KEYWORDS: dict[str, str] = {
     "FrictionSpring": "FrictionSpring K B",
     "Servo": "Servo KP KI KD TAUMAX",
     "Terrain": ("Terrain flat | ramp SLOPE [X|Y] | bump HEIGHT Y [WIDTH] | rough RANGE [CELL [SEED]] | "
-                "matrix NX NY X0 X1 Y0 Y1 { rows }"),
+                "stairs RISE TREAD [N] | bar HEIGHT Y [DEPTH] | gap WIDTH Y | matrix NX NY X0 X1 Y0 Y1 { rows }"),
     "Track": "Track BODY",
     "Harmonics": "Harmonics K",
     "Frequency": "Frequency HZ",

@@ -2,14 +2,12 @@
 
 The thesis shows only an excerpt of the format (Ch. 3.5.1: ``ColorDef``, ``TimeMax``,
 ``Simulate``, ``Display``, ``LogRate``, ``Friction``, ``Object``, ``Compound``, ``Joint``,
-``Log``; Ch. 3.5.3: ``TextOnly``).  The rest of the grammar (``Gravity``, ``Ground``,
-``Terrain``, ``Servo``, ``Pipeline``, ...) completes it so that one file describes a whole experiment;
-docs/wl-format.md is the reference.
+``Log``; Ch. 3.5.3: ``TextOnly``).  The rest (``Gravity``, ``Ground``, ``Terrain``, ``Servo``, ``Pipeline``, ...)
+completes it so that one file describes a whole experiment; docs/wl-format.md is the reference.
 
 :class:`_Parser` dispatches each top-level statement: a setting goes into the
-Description at once (checked on its own: counts, ranges, duplicates), an ``Object``,
-``Compound`` or ``Joint`` block is read into a raw record.  Then
-:func:`cpgjax.io.wl.checks.assemble` checks the records against each other.  Parsing is
+Description at once (checked on its own: counts, ranges, duplicates), an ``Object``, ``Compound`` or ``Joint``
+block is read into a raw record.  Then :func:`cpgjax.io.wl.checks.assemble` checks them together.  Parsing is
 all-or-nothing: every problem raises :class:`~cpgjax.errors.DescriptionError`, whose text
 is ``path:line: what is wrong and how to fix it``.
 
@@ -44,6 +42,7 @@ from cpgjax.io.wl.lexer import (
     plural,
     suggest,
 )
+from cpgjax.sim import course
 from cpgjax.sim.description import Description, LogDef, ServoDef, TerrainDef
 from cpgjax.sim.model import PIPELINES, Model, build_model
 from cpgjax.sim.terrain import TERRAIN_KINDS, check_terrain
@@ -51,6 +50,8 @@ from cpgjax.sim.terrain import TERRAIN_KINDS, check_terrain
 __all__ = ["parse_wl", "load_wl", "load_model"]
 
 _TYPES = {"cube": "Cube", "cylinder": "Cylinder", "sphere": "Sphere"}
+_NUMBERS = {"bump": ("Terrain bump HEIGHT Y [WIDTH]", 2, 3), "stairs": ("Terrain stairs RISE TREAD [N]", 2, 3),
+            "bar": ("Terrain bar HEIGHT Y [DEPTH]", 2, 3), "gap": ("Terrain gap WIDTH Y", 2, 2)}
 
 
 class _Parser(StatementReader):
@@ -232,8 +233,13 @@ class _Parser(StatementReader):
                 axis = rest.args[-1].upper()
                 rest = Stmt(st.line, rest.toks[:-1])
             p = self.numbers(rest, what, "Terrain ramp SLOPE_RAD [X|Y]", 1)
-        elif kind == "bump":
-            p = self.numbers(rest, what, "Terrain bump HEIGHT Y [WIDTH]", 2, 3)
+        elif kind in _NUMBERS:     # bump, stairs, bar, gap: numbers only
+            p = self.numbers(rest, what, *_NUMBERS[kind])
+        elif kind == "course":     # its items as one text, as on the command line (sim/course.py)
+            try:
+                p = course.encode(course.parse_items("".join(rest.args)))
+            except ValueError as e:
+                raise self.err(st.line, str(e)) from None
         elif kind == "rough":
             u = "Terrain rough RANGE [CELL [SEED]]"
             p = self.numbers(rest, what, u, 1, 3)
@@ -422,20 +428,14 @@ class _Parser(StatementReader):
 # ----------------------------------------------------------------------------- public API
 
 def parse_wl(text: str, path: str = "<string>") -> Description:
-    """Parse `.wl` text into a checked :class:`Description` (thesis Ch. 3.5.1).
-
-    Raises :class:`DescriptionError` (``path:line: message``) at the first problem, in file
-    order; nothing is returned half-built.
-    """
+    """Parse `.wl` text into a checked :class:`Description` (thesis Ch. 3.5.1).  Raises :class:`DescriptionError`
+    (``path:line: message``) at the first problem, in file order; nothing is returned half-built."""
     return _Parser(text, path).parse()
 
 
 def load_wl(path: str | os.PathLike[str]) -> Description:
-    """Read and parse a `.wl` file; the Description keeps ``path`` and the full ``text``.
-
-    A file that cannot be read as text (missing, a directory, binary) is a DescriptionError
-    too (:func:`cpgjax.io.textfile.read_text`).
-    """
+    """Read and parse a `.wl` file; the Description keeps ``path`` and the full ``text``.  A file that cannot be
+    read as text (missing, a directory, binary) is a DescriptionError too (:func:`cpgjax.io.textfile.read_text`)."""
     p, text = read_text(path, ".wl")
     return parse_wl(text, p)
 

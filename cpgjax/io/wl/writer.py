@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from cpgjax.sim.description import Description
+from cpgjax.sim.terrain import terrain_spec
 
 __all__ = ["format_wl"]
 
@@ -57,6 +58,8 @@ def format_wl(desc: Description) -> str:
         out.append(f"Terrain matrix {nx} {ny} {_v(t.params[2:])} {{")
         out += [f"    {_v(row)}" for row in (t.heights or ())]
         out.append("}")
+    elif t.kind == "course":
+        out.append("Terrain " + terrain_spec(t).replace(":", " ", 1))
     elif t.kind == "rough" and len(t.params) > 2:
         out.append(f"Terrain rough {_v(t.params[:2])} {int(t.params[2])}")
     else:
