@@ -43,6 +43,11 @@ def register(subparsers: Any) -> None:
     s.add_argument("--rough", type=_heights, default=list(d.roughs),
                    help="ranges of rough ground to walk on, m: heights uniform from 0 to each (default "
                         "0.01,0.02,0.03,0.04 as the thesis; none: no rough ground)")
+    s.add_argument("--stair", type=_heights, default=list(d.stairs),
+                   help="rises of a flight of 3 stairs (0.3 m treads, vertical risers) halfway, m, beside the thesis's "
+                        "bump (e.g. 0.02,0.04; default none)")
+    s.add_argument("--bar", type=_heights, default=list(d.bars),
+                   help="heights of a bar (5 cm deep, vertical faces) halfway, m (e.g. 0.01,0.03; default none)")
     s.add_argument("--seeds", type=o.count, default=d.seeds, help=f"rough fields per range (default {d.seeds})")
     s.add_argument("--bump-width", type=o.positive, default=d.bump_width,
                    help=f"bump length along the path, m (default {d.bump_width:g})")
@@ -66,7 +71,8 @@ def _config(args):
     from cpgjax.experiments.stability import StabilityConfig
 
     return StabilityConfig(bumps=tuple(args.bump), roughs=tuple(args.rough), seeds=args.seeds,
-                           bump_width=args.bump_width, time=args.time, delta=args.delta, block=args.block)
+                           bump_width=args.bump_width, time=args.time, delta=args.delta, block=args.block,
+                           stairs=tuple(args.stair), bars=tuple(args.bar))
 
 
 def _slug(name: str) -> str:
@@ -124,7 +130,7 @@ def _controllers(args, model_path: str) -> int:
     written = [save(res, args.out)]
     for i, name in enumerate(names):
         for measure in ("vestibular", "projection"):
-            figs = [(kind, condition_panels(res, i, measure, kind)) for kind in ("bump", "rough")]
+            figs = [(kind, condition_panels(res, i, measure, kind)) for kind in ("bump", "rough", "stair", "bar")]
             if all(f is None for _, f in figs):
                 figs = [("flat", flat_panel(res, i, measure))]
             for kind, fig in figs:

@@ -34,6 +34,7 @@ from cpgjax.episode.policy import family_from_meta, from_genomes
 from cpgjax.io.results import read_run
 from cpgjax.io.sweepdir import run_files
 from cpgjax.io.wl import parse_wl
+from cpgjax.sim.ledges import finish_line
 from cpgjax.sim.model import build_model
 
 # What "carries over" means (the one definition, :func:`failures`): the gait walks here -- it does not fall and
@@ -87,7 +88,7 @@ class Replay:
     def failures(self) -> list[str]:
         """Which conditions of carrying over this gait fails (:func:`failures`); empty when it carries over."""
         return failures(self.ours["fitness"], self.ours["speed"], self.ours["fallen"], self.mujoco["fitness"],
-                        self.mujoco_jit["falls"])
+                        self.mujoco_jit["falls"], self.mujoco_jit.get("short", 0))
 
     @property
     def carries_over(self) -> bool:
@@ -95,7 +96,7 @@ class Replay:
 
 
 def failures(fitness_here: float, speed_here: float, fell_here: bool, fitness_mujoco: float,
-             mujoco_falls: int) -> list[str]:
+             mujoco_falls: int, mujoco_short: int = 0) -> list[str]:
     """The conditions of carrying over (:data:`RULE`) that a gait fails, each named in a few words: ``fell here``,
     ``0.03 m/s here`` (slower than :data:`MIN_SPEED`), ``MuJoCo 45 %`` (of our fitness, below :data:`MIN_RATIO`),
     ``15 MuJoCo falls`` (more than :data:`MAX_FALLS` of the jittered replays).  Empty: it carries over.
@@ -113,6 +114,8 @@ def failures(fitness_here: float, speed_here: float, fell_here: bool, fitness_mu
         out.append(f"MuJoCo {ratio:.0%}" if np.isfinite(ratio) else "MuJoCo -")
     if mujoco_falls > MAX_FALLS:
         out.append(f"{int(mujoco_falls)} MuJoCo falls")
+    if mujoco_short > MAX_FALLS:      # stairs, bars, gaps: up, but not past the last face
+        out.append(f"{int(mujoco_short)} MuJoCo short")
     return out
 
 
@@ -157,10 +160,16 @@ def run_setting(run) -> tuple[str, float | None, str | None]:
     return evaluation, cli.get("time") or run.meta.get("time"), evolved_terrain(run.meta)
 
 
-def _stats(res: dict) -> dict:
+def _stats(res: dict, finish: float | None = None) -> dict:
+    """Mean, sd, falls and mean speed of jittered replays; with a ``finish`` line (stairs, bars, gaps:
+    ``sim.ledges.finish_line``), ``short``: how many stayed up and did not reach it."""
     f = np.asarray(res["fitness"], float)
-    return {"mean": float(f.mean()), "sd": float(f.std()), "falls": int(np.asarray(res["fallen"]).sum()),
-            "speed": float(np.asarray(res["speed"], float).mean())}
+    fallen = np.asarray(res["fallen"])
+    out = {"mean": float(f.mean()), "sd": float(f.std()), "falls": int(fallen.sum()),
+           "speed": float(np.asarray(res["speed"], float).mean())}
+    if finish is not None:
+        out["short"] = int(np.sum(~fallen & (np.asarray(res["distance"], float) < finish)))
+    return out
 
 
 def variant(model, dt: float | None = None, joint_spring=None):
@@ -236,11 +245,12 @@ def replay_runs(paths, *, replays: int = 32, jitter: float = 1e-3, seed: int = 0
         mj, _, _ = mujoco_run(model, C, time=T, mj=mjm)
         first = lambda r, i: {k: float(np.asarray(r[k])[i]) for k in ("fitness", "speed", "distance")} | {  # noqa: E731
             "fallen": bool(np.asarray(r["fallen"])[i])}
-        rest = lambda r: {k: np.asarray(r[k])[1:] for k in ("fitness", "speed", "fallen")}  # noqa: E731
+        rest = lambda r: {k: np.asarray(r[k])[1:] for k in ("fitness", "speed", "fallen", "distance")}  # noqa: E731
+        finish = finish_line(model.terrain.ledges)
         out.append(Replay(run=path, evaluation=evaluation, cell=os.path.basename(os.path.dirname(path)),
                           seed=int(run.config.get("seed", 0)), fitness_in_run=float(fit),
-                          ours=first(ours, 0), mujoco=first(mj, 0), ours_jit=_stats(rest(ours)),
-                          mujoco_jit=_stats(rest(mj)), pick=how, pipeline=model.pipeline))
+                          ours=first(ours, 0), mujoco=first(mj, 0), ours_jit=_stats(rest(ours), finish),
+                          mujoco_jit=_stats(rest(mj), finish), pick=how, pipeline=model.pipeline))
         if progress is not None:
             progress(out[-1])
     return out
@@ -293,6 +303,10 @@ def summary(replays: list[Replay], by: str = "evaluation") -> dict:
     return out
 
 
+def _falls(jit: dict) -> str:
+    return f"{jit['falls']}" + (f", {jit['short']} short" if "short" in jit else "")
+
+
 def table(replays: list[Replay], replay_count: int, here: str | None = None, by: str = "evaluation") -> str:
     """The markdown table: one row per run, then one per evaluation mode, or per cell with ``by="cell"`` (``here``:
     a note on our side's model)."""
@@ -307,8 +321,8 @@ def table(replays: list[Replay], replay_count: int, here: str | None = None, by:
             f"| {r.label} | {r.evaluation} ({r.pipeline}) | {r.ours['fitness']:.3f}{fell(r.ours)} | "
             f"{r.ours['speed']:.3f} | "
             f"{r.mujoco['fitness']:.3f}{fell(r.mujoco)} | {r.mujoco['speed']:.3f} | {r.ratio:.2f} | "
-            f"{r.ours_jit['mean']:.3f} ± {r.ours_jit['sd']:.3f} ({r.ours_jit['falls']}) | "
-            f"{r.mujoco_jit['mean']:.3f} ± {r.mujoco_jit['sd']:.3f} ({r.mujoco_jit['falls']}) | "
+            f"{r.ours_jit['mean']:.3f} ± {r.ours_jit['sd']:.3f} ({_falls(r.ours_jit)}) | "
+            f"{r.mujoco_jit['mean']:.3f} ± {r.mujoco_jit['sd']:.3f} ({_falls(r.mujoco_jit)}) | "
             f"{verdict(r.failures)} |")
     s = summary(replays, by)
     lines += ["", f"| {'setting' if by == 'cell' else 'evaluation'} | runs | mean fitness here | mean fitness MuJoCo | "

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cpgjax.sim import ledges
 from cpgjax.sim.terrain import Terrain
 
 LANE = 6.0          # m: width of a lane (x)
@@ -33,9 +34,15 @@ ROUGH_CELL = 0.1    # m: the roughness grid (the ``rough:`` terrain's default)
 MARGIN = 1.5        # m: ground beyond the farthest point a robot's body reaches on flat ground
 
 
+STAIR_STEPS = 3     # a stair condition: a flight of this many steps of its rise
+STAIR_TREAD = 0.3   # m
+LEDGE_KINDS = ("stair", "bar")   # conditions with vertical faces (sim.ledges): a ground of their own, not a lane
+
+
 @dataclass(frozen=True)
 class Condition:
-    """One ground: ``kind`` flat, bump (``level`` = height, m) or rough (``level`` = range, m; ``seed``)."""
+    """One ground: ``kind`` flat, bump (``level`` = height, m), rough (``level`` = range, m; ``seed``), stair (a flight
+    of :data:`STAIR_STEPS` steps of ``level`` rise) or bar (``level`` high, ``sim.ledges.BAR_DEPTH`` deep)."""
 
     kind: str
     level: float = 0.0
@@ -48,11 +55,13 @@ class Condition:
         return f"{self.kind} {100 * self.level:g} cm" + (f" #{self.seed}" if self.kind == "rough" else "")
 
 
-def conditions(bumps, roughs, seeds: int, seed0: int = 0) -> list[Condition]:
-    """flat, then each bump height, then each roughness range with ``seeds`` fields (seeds seed0, seed0+1, ...)."""
+def conditions(bumps, roughs, seeds: int, seed0: int = 0, stairs=(), bars=()) -> list[Condition]:
+    """flat, then each bump height, then each roughness range with ``seeds`` fields (seeds seed0, seed0+1, ...),
+    then each stair rise and bar height."""
     out = [Condition("flat")]
     out += [Condition("bump", float(h)) for h in bumps]
     out += [Condition("rough", float(r), seed0 + s) for r in roughs for s in range(seeds)]
+    out += [Condition("stair", float(h)) for h in stairs] + [Condition("bar", float(h)) for h in bars]
     return out
 
 
@@ -68,7 +77,13 @@ def _rough(level: float, seed: int, nx: int, ys: np.ndarray) -> np.ndarray:
 
 
 def course(conds: list[Condition], y_range: tuple[float, float], bump_y: float, bump_width: float) -> Terrain:
-    """One heightfield with a lane per condition (lane k centred on x = k * LANE)."""
+    """One heightfield with a lane per condition (lane k centred on x = k * LANE); a stair or a bar (one condition
+    alone: vertical faces span every x) is a ground of ledges whose first face stands at ``bump_y``."""
+    if len(conds) == 1 and conds[0].kind in LEDGE_KINDS:
+        c = conds[0]
+        led = (ledges.stairs(c.level, STAIR_TREAD, STAIR_STEPS, at=bump_y) if c.kind == "stair"
+               else ledges.bar(c.level, bump_y))
+        return Terrain(f"{c.kind}:{c.level:g}@{bump_y:g}", ledges=led)
     nxl = int(round(LANE / CELL_X))
     ys = np.arange(y_range[0], y_range[1] + CELL_Y / 2, CELL_Y)
     lanes = []
@@ -101,9 +116,11 @@ def placement(conds: list[Condition], lane: np.ndarray, distance: np.ndarray, st
     kind = np.array([conds[k].kind for k in lane])
     level = np.array([conds[k].level for k in lane])
     ahead, behind = reach[0] + 0.05, reach[1] + 0.05
-    world = np.where(d >= 0, start_y + np.maximum(d / 2, ahead), start_y + np.minimum(d / 2, -behind) - bump_width)
-    sy = np.where(kind == "bump", bump_y - world, 0.0)
-    lift = np.where(kind == "rough", level, 0.0)
+    width = np.where(kind == "stair", STAIR_STEPS * STAIR_TREAD, np.where(kind == "bar", ledges.BAR_DEPTH, bump_width))
+    world = np.where(d >= 0, start_y + np.maximum(d / 2, ahead), start_y + np.minimum(d / 2, -behind) - width)
+    sy = np.where(np.isin(kind, ("bump", *LEDGE_KINDS)), bump_y - world, 0.0)
+    # from the top of a stair, walking backwards down it
+    lift = np.where(kind == "rough", level, np.where((kind == "stair") & (d < 0), STAIR_STEPS * level, 0.0))
     lo = float(np.min(start_y + np.minimum(d, 0.0) + sy, initial=start_y)) - MARGIN
     hi = float(np.max(start_y + np.maximum(d, 0.0) + sy, initial=start_y)) + MARGIN
     return np.stack([lane * LANE, sy]).astype(np.float32), lift.astype(np.float32), (lo, hi)

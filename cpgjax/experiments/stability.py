@@ -27,11 +27,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from cpgjax.episode.batch import LANES, evaluate, simulate
-from cpgjax.episode.courses import Condition, conditions, course, placement
+from cpgjax.episode.courses import LEDGE_KINDS, Condition, conditions, course, placement
 from cpgjax.episode.fitness import DEFAULT_DELTA, stability
 from cpgjax.episode.policy import batch_size, family_from_meta, from_genomes, is_closed, table_fields
 from cpgjax.episode.probes import Stability
 from cpgjax.episode.rollout import FALL_TILT, schedule
+from cpgjax.sim.ledges import RISE_MAX
 from cpgjax.sim.variation import Variation
 
 
@@ -43,6 +44,8 @@ class StabilityConfig:
     roughs: tuple[float, ...] = (0.01, 0.02, 0.03, 0.04)   # m: roughness ranges (Fig. 6.14)
     seeds: int = 4                 # rough fields per range (the thesis: one)
     bump_width: float = 0.3        # m: along the path
+    stairs: tuple[float, ...] = ()  # m: rises of a flight of stairs halfway (episode.courses.STAIR_STEPS steps)
+    bars: tuple[float, ...] = ()    # m: heights of a bar halfway (sim.ledges.BAR_DEPTH deep)
     time: float | None = None      # s: the episode (None: the model's TimeMax)
     delta: float = DEFAULT_DELTA   # eq. 6.2
     block: int = 1024              # robots per call (one compiled program; a progress step per call)
@@ -50,6 +53,8 @@ class StabilityConfig:
     def __post_init__(self) -> None:
         if any(not (math.isfinite(h) and h >= 0) for h in (*self.bumps, *self.roughs)):
             raise ValueError("bump heights and roughness ranges must be finite numbers >= 0 (metres)")
+        if any(not (math.isfinite(h) and 0 < h <= RISE_MAX) for h in (*self.stairs, *self.bars)):
+            raise ValueError(f"stair rises and bar heights must be numbers > 0 and <= {RISE_MAX:g} m")
         if self.seeds < 1:
             raise ValueError(f"seeds must be >= 1, got {self.seeds}")
         if not self.bump_width > 0:
@@ -148,13 +153,32 @@ def run_course(model, coeffs: np.ndarray, lane: np.ndarray, conds: list[Conditio
     return {k: np.concatenate([p[k] for p in parts], -1)[..., :N] for k in parts[0]}
 
 
+def _run_grounds(model, coeffs, ci, lane, conds, flat_distance, cfg, progress) -> dict:
+    """:func:`run_course` on the lanes of the heightfield conditions, then on each stair and bar (a ground of its
+    own: their faces span every x), the results put back in the order of ``(ci, lane)``."""
+    groups = [[k for k, c in enumerate(conds) if c.kind not in LEDGE_KINDS]]
+    groups += [[k] for k, c in enumerate(conds) if c.kind in LEDGE_KINDS]
+    out: dict = {}
+    for g in groups:
+        sel = np.nonzero(np.isin(lane, g))[0]
+        if len(sel) == 0:
+            continue
+        remap = np.zeros(len(conds), int)
+        remap[g] = np.arange(len(g))
+        r = run_course(model, coeffs[ci[sel]], remap[lane[sel]], [conds[k] for k in g], flat_distance[ci[sel]], cfg,
+                       progress=progress)
+        for k, v in r.items():
+            out.setdefault(k, np.zeros(v.shape[:-1] + (len(lane),), v.dtype))[..., sel] = v
+    return out
+
+
 def perturbation_experiment(model, coeffs: np.ndarray, names: list[str], cfg: StabilityConfig = StabilityConfig(),
                             *, progress: bool = False) -> StabilityResult:
     """Controllers [C, n, 2K+1] (or a :class:`~cpgjax.episode.policy.ClosedLoop` of C) on flat ground, bumps and
-    rough fields, all in one batch (Figs. 6.13-6.21)."""
+    rough fields, all in one batch (Figs. 6.13-6.21), and on stairs and bars (a batch each)."""
     coeffs = coeffs if is_closed(coeffs) else np.asarray(coeffs, np.float32)
     C = batch_size(coeffs)
-    conds = conditions(cfg.bumps, cfg.roughs, cfg.seeds)
+    conds = conditions(cfg.bumps, cfg.roughs, cfg.seeds, stairs=cfg.stairs, bars=cfg.bars)
     K = len(conds)
     ci, lane = np.meshgrid(np.arange(C), np.arange(K), indexing="ij")
     ci, lane = ci.ravel(), lane.ravel()
@@ -163,8 +187,7 @@ def perturbation_experiment(model, coeffs: np.ndarray, names: list[str], cfg: St
         flat = r
     else:
         flat = simulate(model, coeffs, time=cfg.time, delta=cfg.delta)
-        r = run_course(model, coeffs[ci], lane, conds, np.asarray(flat["distance"], float)[ci], cfg,
-                       progress=progress)
+        r = _run_grounds(model, coeffs, ci, lane, conds, np.asarray(flat["distance"], float), cfg, progress)
     inner, outer = schedule(model, cfg.time)
     t = (np.arange(outer) + 1) * inner * model.dt
     S = r["S"].T.reshape(C, K, -1)

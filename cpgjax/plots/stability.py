@@ -49,7 +49,8 @@ def condition_panels(result, i: int, measure: str, kind: str) -> Figure | None:
             ax.axhline(0, color="0.6", lw=0.5)
     axes[0].set_ylabel(ylabel)
     axes[0].legend(fontsize=7, loc="lower left")
-    what = "a bump across the path halfway" if kind == "bump" else "random roughness"
+    what = {"bump": "a bump across the path halfway", "rough": "random roughness", "stair": "a flight of 3 stairs "
+            "halfway", "bar": "a bar across the path halfway"}[kind]
     fig.suptitle(f"{result.names[i]}: {ylabel} with {what} (solid) and on flat ground (dashed)", fontsize=10)
     return fig
 
@@ -75,10 +76,11 @@ def fall_probability(study, what: str = "fall") -> Figure:
     the fall probability (``what="fall"``) or the mean time to fall in s (``"time_to_fall"``)."""
     data = study.fall if what == "fall" else study.fall_time
     top = 1.0 if what == "fall" else float(max(np.max(a) for a in data)) if data else 1.0
-    fig, axes = _figure(2, (5.0, 3.8))
+    kinds = [k for k in ("bump", "rough", "stair", "bar") if any(g.startswith(k) for g in study.groups)] or ["bump"]
+    fig, axes = _figure(max(2, len(kinds)), (5.0, 3.8))
     flat = [j for j, g in enumerate(study.groups) if g == "flat"]
-    for kind, ax in zip(("bump", "rough"), axes, strict=True):
-        cols = [j for j, g in enumerate(study.groups) if g.startswith(kind)]
+    for kind, ax in zip(kinds + [""] * (len(axes) - len(kinds)), axes, strict=True):
+        cols = [j for j, g in enumerate(study.groups) if kind and g.startswith(kind)]
         if not cols:
             ax.set_visible(False)
             continue
@@ -89,7 +91,8 @@ def fall_probability(study, what: str = "fall") -> Figure:
             sd = f[:, cols].std(0, ddof=1) if f.shape[0] > 1 else np.zeros_like(m)
             ax.plot(x, m, "o-", color=f"C{n % 10}", lw=1.2, ms=3, label=lab)
             ax.fill_between(x, np.clip(m - sd, 0, top), np.clip(m + sd, 0, top), color=f"C{n % 10}", alpha=0.12)
-        ax.set_xlabel("bump height [cm] (0: flat)" if kind == "bump" else "roughness range [cm] (0: flat)")
+        ax.set_xlabel({"bump": "bump height", "rough": "roughness range", "stair": "stair rise",
+                       "bar": "bar height"}[kind] + " [cm] (0: flat)")
         ax.set_ylim(-0.02 * top, 1.02 * top)
     axes[0].set_ylabel("fall probability" if what == "fall" else "mean time to fall [s]")
     (axes[0] if axes[0].get_visible() else axes[1]).legend(fontsize=7)

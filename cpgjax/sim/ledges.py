@@ -35,6 +35,7 @@ TREAD_MAX = 3.0     # m: a stair's tread at most this long
 WIDTH_MAX = 2.0     # m: a gap or a bar at most this long along the path
 STEPS_MAX = 50      # steps of one flight
 _FAR = 1e6          # m: beyond every edge (pads the profile's ends)
+FINISH_BEHIND = 0.4  # m: the quadruped's hind feet are 0.3 m behind its body's centre: past the last face by this
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,3 +110,9 @@ def check(kind: str, p) -> None:
             raise ValueError(f"bar DEPTH must be positive and at most {WIDTH_MAX:g} m along the path, got {p[1]:g}")
     elif not 0 < p[0] <= WIDTH_MAX:
         raise ValueError(f"gap WIDTH must be positive and at most {WIDTH_MAX:g} m, got {p[0]:g}")
+
+
+def finish_line(led: Ledges | None) -> float | None:
+    """How far (m along y) a robot's tracked body must go for its hind feet to be past the last face: the last edge
+    plus :data:`FINISH_BEHIND` (None: no ledges)."""
+    return None if led is None else float(np.max(led.edges)) + FINISH_BEHIND

@@ -246,3 +246,20 @@ def test_a_run_replayed_on_a_rough_field_scores_otherwise_than_on_its_own(runs):
     (r,) = transfer.replay_runs([runs / "thesis.h5"], replays=1, terrain="rough:0.01:0.1:3")
     assert r.ours["fitness"] != pytest.approx(r.fitness_in_run, abs=1e-4)
     assert np.isfinite(r.mujoco["fitness"]) and r.pipeline == "springs"
+
+
+def test_on_stairs_a_replay_that_stays_up_short_of_the_finish_counts_against_the_gait():
+    """With ledges (stairs, a bar, a gap) a jittered replay that stays up but ends before the finish line (the last
+    face plus the hind legs' reach, ``sim.ledges.finish_line``) is counted ``short``, and more such than the falls
+    allowed fail the gait; without ledges nothing is counted."""
+    from cpgjax.sim.ledges import FINISH_BEHIND, finish_line
+    from cpgjax.sim.terrain import make_terrain
+
+    finish = finish_line(make_terrain("course:flat:0.5,stairs:0.04:0.3:5").ledges)
+    assert finish == pytest.approx(0.5 + 0.5 + 4 * 0.3 + FINISH_BEHIND)
+    assert finish_line(make_terrain("rough:0.02").ledges) is None
+    res = {"fitness": [0.1, 0.2, 0.3, 0.1], "speed": [0.1, 0.2, 0.3, 0.1], "fallen": [True, False, False, False],
+           "distance": [0.5, 1.0, 3.0, finish - 0.01]}
+    assert transfer._stats(res, finish)["short"] == 2 and "short" not in transfer._stats(res)
+    assert transfer.failures(0.2, 0.2, False, 0.2, 0, 3) == ["3 MuJoCo short"]
+    assert transfer.failures(0.2, 0.2, False, 0.2, 0, 2) == []

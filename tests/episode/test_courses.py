@@ -67,3 +67,20 @@ def test_placement_meets_the_bump_halfway_and_lifts_rough_robots():
     assert -1.0 + shift[1, 3] == pytest.approx(5.3)                       # backwards: meets the far edge
     np.testing.assert_allclose(lift, [0, 0, 0, 0, 0.03], rtol=1e-6)
     assert lo <= -2.0 + 6.0 - 1.5 + 1e-6 and hi >= 2.0 + 1.5 - 1e-6
+
+
+def test_a_stair_or_a_bar_is_a_ground_of_its_own_met_halfway():
+    """A stair or a bar has vertical faces across every x (sim/ledges.py): it is a ground of its own, not a lane; its
+    first face stands where a bump's near edge would, and a robot walking backwards starts on the stair's top."""
+    from cpgjax.episode.courses import STAIR_STEPS, STAIR_TREAD
+
+    conds = conditions((), (), 1, stairs=(0.04,), bars=(0.03,))
+    assert [c.label for c in conds] == ["flat", "stair 4 cm", "bar 3 cm"]
+    stair, bar = course([conds[1]], (0.0, 5.0), 0.2, 0.3), course([conds[2]], (0.0, 5.0), 0.2, 0.3)
+    assert stair.heights is None and bar.heights is None
+    np.testing.assert_allclose(stair.ledges.edges, 0.2 + STAIR_TREAD * np.arange(STAIR_STEPS))
+    np.testing.assert_allclose(stair.height_np(np.zeros(3), np.array([0.19, 0.21, 9.0])), [0, 0.04, 0.12], atol=1e-7)
+    np.testing.assert_allclose(bar.height_np(np.zeros(3), np.array([0.19, 0.21, 0.26])), [0, 0.03, 0], atol=1e-7)
+    shift, lift, _ = placement(conds, np.array([1, 1, 2]), np.array([2.0, -2.0, 2.0]), 0.0, 0.2, 0.3)
+    np.testing.assert_allclose(shift[1], [0.2 - 1.0, 0.2 + 1.0 + STAIR_STEPS * STAIR_TREAD, 0.2 - 1.0])
+    np.testing.assert_allclose(lift, [0.0, STAIR_STEPS * 0.04, 0.0], atol=1e-7)

@@ -136,3 +136,18 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
     assert cli.main(["stability", QUAD, "--out", str(tmp_path / "x")]) == 2
     assert "--ctl" in capsys.readouterr().err
     assert cli.main(["stability", QUAD, "--ctl", TROT, "--bump", "-0.01", "--out", str(tmp_path / "x")]) == 2
+
+
+@pytest.mark.slow  # a program per stair and bar; fast: their grounds and placement, episode/test_courses.py
+def test_stairs_and_bars_stand_beside_the_thesis_bump(tmp_path, capsys):
+    """``--stair`` and ``--bar`` add a flight of stairs and a bar halfway, each a ground of its own, with their
+    panels beside the bump's; the trot on exact joints climbs a 2 cm flight and steps over a 3 cm bar in 10 s."""
+    out = tmp_path / "st"
+    assert cli.main(["stability", QUAD, "--ctl", TROT, "--pipeline", "exact", "--bump", "none", "--rough", "none",
+                     "--stair", "0.02", "--bar", "0.03", "--time", "10", "--out", str(out), "--json"]) == 0
+    s = json.loads((out / "summary.json").read_text())["conditions"]["quadruped-trot"]
+    assert set(s) == {"flat", "stair 2 cm", "bar 3 cm"}
+    assert s["stair 2 cm"]["fall_rate"] == 0 and s["bar 3 cm"]["fall_rate"] == 0
+    assert s["stair 2 cm"]["distance"] < s["flat"]["distance"] and s["bar 3 cm"]["distance"] < s["flat"]["distance"]
+    assert (out / "quadruped-trot-vestibular-stair.png").exists()
+    assert (out / "quadruped-trot-projection-bar.png").exists()
