@@ -139,7 +139,7 @@ def test_stability_notebook_tiny(tmp_path):
     assert cli.main(args) == 0
     figs = sorted(os.listdir(tmp_path / "figures"))
     want = [f"fig-6-{i}.png" for i in range(13, 22)] + ["population.png", "population-time.png", "claims.md",
-                                                         "population.md"]
+                                                         "population.md", "stair-stable.png", "bar-stable.png"]
     assert figs == sorted(want)
     claims = (tmp_path / "figures" / "claims.md").read_text()
     assert "hexapod" in claims and claims.count("**") >= 16        # a verdict in every row
