@@ -117,6 +117,9 @@ def build(items, xs: np.ndarray, ys: np.ndarray):
     y, level = COURSE_AT, 0.0
 
     def step_to(at, new):
+        if edges and abs(edges[-1] - at) < 1e-9:      # two faces at one place (a gap, then a bar): one face
+            edges.pop()
+            levels.pop()
         if new != levels[-1]:
             edges.append(at)
             levels.append(new)

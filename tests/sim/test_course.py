@@ -31,8 +31,11 @@ def test_each_item_starts_where_the_last_ended_and_at_its_height():
     assert course.rough_spans(ISSUE_COURSE) == [(a + 1, a + 3)]
     # flat at the last height after the last item, and before the first
     np.testing.assert_allclose(t.height_np(np.zeros(3), np.array([-1.0, 0.4, 11.0])), [0, 0, 0.12], atol=1e-7)
+    back_to_back = make_terrain("course:gap:0.1,bar:0.03,flat:1")          # one face where the gap meets the bar
+    np.testing.assert_allclose(back_to_back.ledges.edges, [a, a + 0.1, a + 0.1 + BAR_DEPTH])
+    np.testing.assert_allclose(back_to_back.ledges.levels, [0, -GAP_DEPTH, 0.03, 0])
     down = make_terrain("course:stairs:0.04:0.3:2,gap:0.1,stairs:-0.04:0.3:2")
-    np.testing.assert_allclose(down.ledges.levels, [0, 0.04, 0.08, 0.08 - GAP_DEPTH, 0.08, 0.04, 0.0])
+    np.testing.assert_allclose(down.ledges.levels, [0, 0.04, 0.08, 0.08 - GAP_DEPTH, 0.04, 0.0])   # no 0-wide tread
     assert down.heights is None
 
 
