@@ -35,7 +35,7 @@ episodes, each with fresh perturbations drawn per robot from its own key:
   rad/s for the first half of the episode and another for the second (:func:`commands`,
   :class:`cpgjax.episode.steering.Schedule`), the episode scored by how well it follows them
   (:func:`cpgjax.episode.steering.tracking_fitness`) instead of eq. 4.6; ``speed`` (m/s, 0: none) caps the speed
-  that score credits.
+  the score credits (without a command, eq. 4.6's).
 
 **Domain randomisation** is the named preset :data:`PRESETS` ``domain`` (``--perturb preset=domain``): every range
 above at once, wide (docs/evolution.md); keys given beside it override its values.
@@ -91,7 +91,7 @@ class Perturbations:
     latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
     touch: float = 0.0         # m: each touch sensor reads its foot down from a depth U(-x, x), drawn per episode
     command: float = 0.0       # rad/s: range of the commanded turning rate (0: no command, eq. 4.6's score)
-    speed: float = 0.0         # m/s: the tracking fitness credits the speed up to this (0: no cap; needs command)
+    speed: float = 0.0         # m/s: the score credits the speed up to this (0: no cap; with or without command)
     turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
@@ -126,9 +126,6 @@ class Perturbations:
                              f"(1 cm), got {self.touch:g}")
         if self.latency not in (0, 1):
             raise ValueError(f"perturbation latency is 0 or 1 step, got {self.latency}")
-        if self.speed > 0 and self.command == 0:
-            raise ValueError("perturbation speed caps the tracking fitness of a commanded turning rate: give command "
-                             "too (e.g. command=0.3,speed=0.12)")
         if self.turn_speed > 0 and not (0 < self.turn_speed <= self.speed):
             raise ValueError(f"perturbation turn_speed ({self.turn_speed:g}) is the speed credited at a full turn, "
                              f"the cap falling to it from speed at no turn: give speed too, at least as large "
@@ -184,7 +181,8 @@ MEANING = {
              "U(-x, x) drawn per episode, m (e.g. 0.001: a gait cannot live on the millisecond its foot lands)",
     "command": "closed-loop controllers that read the command only: a turning rate drawn up to +-x rad/s for each "
                "half of the episode, the score how well the robot follows it (steering)",
-    "speed": "with command: the steering score credits speed up to this, m/s (0: no cap)",
+    "speed": "the score credits speed up to this, m/s (0: no cap): with command the steering score, without it "
+             "eq. 4.6's (e.g. 0.5: a gait scored by how surely it reaches 0.5 m/s, not by how far past it it goes)",
     "turn_speed": "with speed: the cap falls from speed at no turn to this at a full turn (the episode's mean "
                   "abs(command) over command), m/s: a gait fast on a straight line and slow in a tight turn",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",

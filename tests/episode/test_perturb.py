@@ -66,7 +66,7 @@ def test_the_run_records_every_range_drawn_and_the_controller_family():
 
 @pytest.mark.parametrize("bad, message", [({"latency": 2}, "latency is 0 or 1"), ({"relief": 1.5}, "relief"),
                                           ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown"),
-                                          ({"speed": 0.12}, "give command too"),
+                                          ({"speed": -0.12}, "speed must be a finite number >= 0"),
                                           ({"bristle": 1.0, "bristle_from": 2.0}, "bristle_from"),
                                           ({"touch": 0.02}, "touch .* <= 0.01"), ({"touch": -0.001}, "touch"),
                                           ({"texture": 0.002}, "give roughness too"),
@@ -131,6 +131,19 @@ def test_a_steered_episode_is_scored_by_tracking_capped_at_the_speed_then_by_its
     capped = episode_scores(r, Perturbations(command=0.4, speed=0.15, fall_zero=True), steered=True)["fitness"]
     np.testing.assert_allclose(capped, [0.15 * share, 0.1 * share, 0.0], rtol=1e-6)
     np.testing.assert_array_equal(episode_scores(r, Perturbations())["fitness"], r["fitness"])   # eq. 4.6's, kept
+
+
+def test_without_a_command_the_speed_caps_eq_4_6s_score_before_the_fall_scales_it():
+    """``speed`` without ``command``: eq. 4.6's episode fitness credited up to ``speed`` m/s, then scaled by the share
+    of the episode before a fall (``fall_survival``); without ``speed`` it is kept as it is."""
+    from cpgjax.optim.factory import episode_scores
+
+    r = {"fitness": jnp.asarray([0.7, 0.3, 0.9]), "down": jnp.asarray([False, False, True]),
+         "up": jnp.asarray([1.0, 1.0, 0.5])}
+    capped = episode_scores(r, Perturbations(speed=0.5, fall_survival=True))["fitness"]
+    np.testing.assert_allclose(capped, [0.5, 0.3, 0.25], rtol=1e-6)
+    free = episode_scores(r, Perturbations(fall_survival=True))["fitness"]
+    np.testing.assert_allclose(free, [0.7, 0.3, 0.45], rtol=1e-6)
 
 
 def test_the_texture_is_the_rough_field_sampled_finer_plus_a_fine_relief_in_its_range():
