@@ -28,6 +28,9 @@ episodes, each with fresh perturbations drawn per robot from its own key:
   ``damping``); the rough field's relief (``relief``): its heights scaled by ``1 - U(0, relief)`` per episode, so
   that with ``relief=1`` an episode's ground is anywhere from flat to ``roughness`` rough, at a random spot of the
   field (on stairs, a bar or a gap, ``sim.ledges``, their heights too, with or without ``roughness``);
+* (off by default) a shove (``push``): once per episode, at a time drawn from :data:`PUSH_WINDOW` of it, every
+  body's velocity changes by ``(U(-push, push), U(-push, push), 0)`` m/s (a horizontal impulse on the whole robot,
+  applied by the rollout, :func:`cpgjax.episode.rollout.rollout`), so that a gait must recover from a stumble;
 * (closed-loop controllers, :mod:`cpgjax.episode.policy`) the sensors: noise of ``noise`` times each sensor's
   scale (standard deviation), drawn per robot and step, and a ``latency`` of 0 or 1 step between the observation
   and the action;
@@ -66,6 +69,8 @@ ROUGH_CELL = 0.1        # m: cell of the roughness heightfield
 ROUGH_SEED = 20000      # the roughness field is fixed; each robot stands at a random spot of it
 TEXTURE_CELL = 0.025    # m: cell of the texture's fine relief (``texture``)
 SHIFT = (1.5, 2.0)      # m: half-ranges of the random spot in x and y
+PUSH_WINDOW = (0.2, 0.8)  # the shove's time, as a share of the episode: drawn uniformly in this window
+PUSH_MAX = 2.0          # m/s: the largest shove accepted
 
 
 @dataclass(frozen=True)
@@ -87,6 +92,7 @@ class Perturbations:
     damping: float = 0.0       # relative: the ground's damping B (eq. 3.7)
     relief: float = 0.0        # share: the rough field's heights scaled by 1 - U(0, relief) per episode
     texture: float = 0.0       # m: with roughness, a fine relief U(0, texture) on 2.5 cm cells added to the field
+    push: float = 0.0          # m/s: once per episode every body's velocity changes by U(-push, push) in x and y
     noise: float = 0.0         # sensor noise, in each sensor's scale (sd; closed-loop controllers)
     latency: int = 0           # steps between a closed-loop controller's observation and its action (0 or 1)
     touch: float = 0.0         # m: each touch sensor reads its foot down from a depth U(-x, x), drawn per episode
@@ -103,7 +109,7 @@ class Perturbations:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
         for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "bristle_from",
                   "torque", "stiffness", "damping", "relief", "noise", "command", "speed", "turn_speed", "touch",
-                  "texture"):
+                  "texture", "push"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -118,6 +124,9 @@ class Perturbations:
         if self.texture > 0 and self.roughness == 0:
             raise ValueError("perturbation texture is a fine relief added to the rough field: give roughness too "
                              "(e.g. roughness=0.04,texture=0.002)")
+        if self.push > PUSH_MAX:
+            raise ValueError(f"perturbation push is the shove's range, in m/s, and must be <= {PUSH_MAX:g}, "
+                             f"got {self.push:g}")
         if self.texture > 0.01:
             raise ValueError(f"perturbation texture is the fine relief's range, in m, and must be <= 0.01 (1 cm), "
                              f"got {self.texture:g}")
@@ -175,6 +184,8 @@ MEANING = {
               "to this, 0 to 1 (1: anywhere from flat to fully rough, or stairs from none to full height)",
     "texture": "with roughness: a fine relief, heights from 0 to this on 2.5 cm cells, added to the rough field, m "
                "(e.g. 0.002: a foot that skims the ground in its swing catches on it, as on MuJoCo's triangles)",
+    "push": "a shove: once per episode, at a time drawn from 20-80 % of it, every body's velocity changes by "
+            "U(-x, x) m/s in x and y (e.g. 0.2: a gait must recover from a stumble)",
     "noise": "closed-loop controllers only: sensor noise, its standard deviation in each sensor's typical size",
     "latency": "closed-loop controllers only: 0 or 1 step between sensing and acting",
     "touch": "closed-loop controllers reading contact only: each leg's touch sensor reads its foot down from a depth "
@@ -194,7 +205,8 @@ MEANING = {
 
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
-         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0}
+         "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0,
+         "push": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the
@@ -269,6 +281,11 @@ def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
             more[f] = 1.0 + u(jax.random.fold_in(key, 9 + i), shape, getattr(p, f))
     if p.relief > 0 and (p.roughness > 0 or model.terrain.ledges is not None):
         more["relief"] = 1.0 - 0.5 * p.relief * (1.0 + u(jax.random.fold_in(key, 12), (), 1.0))
+    if p.push > 0:   # the shove's x and y velocities, then its time as a share of the episode (PUSH_WINDOW)
+        kp = jax.random.fold_in(key, PUSH_STREAM)
+        a, b = PUSH_WINDOW
+        more["push"] = jnp.concatenate([u(kp, (2,), p.push), jnp.zeros(1)])
+        more["push_at"] = a + (b - a) * jax.random.uniform(jax.random.fold_in(kp, 1), (), jnp.float32)
     return (Variation(friction=1.0 + u(ks[2], (), p.friction), mass=1.0 + u(ks[3], (model.nb,), p.mass),
                       gain=1.0 + u(ks[4], (model.n_ctrl,), p.gain), shift=shift,
                       lift=u(ks[5], (), p.lift), tilt=u(ks[6], (2,), p.tilt),
@@ -277,6 +294,7 @@ def _one(model, p: Perturbations, key: jax.Array, n_genes: int):
 
 
 NOISE_STREAM = 13   # folded into a robot's key: the key of its sensor noise (the draws above use 0..12)
+PUSH_STREAM = 16    # folded into a robot's key: the key of its shove (``push``)
 
 
 def noise_key(keys: jax.Array) -> jax.Array:

@@ -145,6 +145,10 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
 
     B = coeffs.shape[-1]
     s0 = init(model, B, var, coeffs.dtype)
+    shove = None
+    if var is not None and var.push is not None:   # (velocity [3, B], the step after which it is added [B])
+        steps = outer * inner
+        shove = (var.push.astype(coeffs.dtype), jnp.floor(var.push_at * steps).astype(jnp.int32) + 1)
     K, f0, dt = model.episode.harmonics, model.episode.frequency, model.dt
     fwd = forward
 
@@ -179,6 +183,8 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
         else:
             ctrl = targets(coeffs, sim_time(model, s), K, f0)
         s = step(model, s, ctrl, var)
+        if shove is not None:   # the episode's shove (perturb ``push``): a velocity added to every body, once
+            s = s._replace(v=s.v + jnp.where(s.n == shove[1], 1.0, 0.0)[None, None] * shove[0][:, None])
         if closed:
             cl["d"] = cl["d"] + dt * mf
         vy = s.v[fwd, model.track]

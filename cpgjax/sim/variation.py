@@ -4,7 +4,8 @@ The :class:`~cpgjax.sim.model.Model` is one nominal robot; a :class:`Variation` 
 of the batch (batch-last arrays), scale factors on its friction coefficients, friction bristle, body
 masses and inertias and servo gains, a shift of where it stands on the terrain, and an offset of its initial
 pose; optionally (``None``: as the model says, the same program as without the field) scale factors on the
-servos' torque limit, the ground's stiffness A and damping B (eq. 3.7) and the relief of the terrain.
+servos' torque limit, the ground's stiffness A and damping B (eq. 3.7) and the relief of the terrain, and a shove
+(which the episode applies, not the step).
 ``Variation.nominal(model, B)`` is the identity (all scales 1, no shift, no offset); the simulator with it
 computes exactly what it computes without one.
 
@@ -35,6 +36,8 @@ class Variation(NamedTuple):
     stiffness: jax.Array | None = None  # [B] scale of the ground's A (eq. 3.7, sim.contact)
     damping: jax.Array | None = None    # [B] scale of the ground's B (eq. 3.7, sim.contact)
     relief: jax.Array | None = None     # [B] scale of the terrain's heights (and slopes) under the robot
+    push: jax.Array | None = None       # [3, B] a shove: the velocity added to every body once (episode.rollout)
+    push_at: jax.Array | None = None    # [B] when, as a share of the episode
 
     @staticmethod
     def nominal(model, batch: int, dtype=jnp.float32) -> Variation:

@@ -38,6 +38,27 @@ def test_the_bristle_can_be_kept_stiffer_than_the_models_own():
     assert "bristle_from" in p.to_dict() and "bristle_from" not in Perturbations(bristle=3.0).to_dict()
 
 
+def test_a_shove_is_drawn_horizontal_in_its_range_at_a_time_in_its_window_leaving_the_other_draws():
+    """``push=0.3``: x and y velocities in [-0.3, 0.3] m/s (the range spanned), none vertical, a time in
+    PUSH_WINDOW's share of the episode; every other draw the same bits as without it (its own key)."""
+    from cpgjax.episode.perturb import PUSH_WINDOW
+
+    m = rig()
+    keys = jax.random.split(jax.random.key(3), 512)
+    fn = jax.jit(lambda k, p: draw(m, p, k, 40), static_argnums=1)
+    base = Perturbations.from_settings({"preset": "domain"})
+    var, off = jax.tree.map(np.asarray, fn(keys, base))
+    pushed, off2 = jax.tree.map(np.asarray, fn(keys, Perturbations.from_settings({"preset": "domain", "push": 0.3})))
+    assert pushed.push.shape == (3, 512) and np.all(pushed.push[2] == 0)
+    assert np.abs(pushed.push[:2]).max() <= 0.3 and np.abs(pushed.push[:2]).min(axis=1).max() < 0.01
+    assert pushed.push[:2].min() < -0.29 and pushed.push[:2].max() > 0.29
+    assert pushed.push_at.min() >= PUSH_WINDOW[0] and pushed.push_at.max() <= PUSH_WINDOW[1]
+    for name in var._fields:
+        if getattr(var, name) is not None:
+            np.testing.assert_array_equal(getattr(pushed, name), getattr(var, name), err_msg=name)
+    np.testing.assert_array_equal(off2, off)
+
+
 def test_ranges_left_off_add_no_field_and_no_record():
     """Without the later ranges the draws and the record are those of the runs made before them (they resume)."""
     m = rig()
@@ -45,6 +66,7 @@ def test_ranges_left_off_add_no_field_and_no_record():
     keys = jax.random.split(jax.random.key(0), 16)
     var, _ = jax.jit(lambda k: draw(m, p, k, 40))(keys)      # jitted: op by op it compiles each operation
     assert var.torque is None and var.stiffness is None and var.damping is None and var.relief is None
+    assert var.push is None and var.push_at is None
     assert set(p.to_dict()) == {"replicas", "lift", "tilt", "roughness", "friction", "mass", "gain", "jitter",
                                 "bristle", "fall_ends", "fall_zero", "fall_survival"}
     assert set(Perturbations.from_settings({"preset": "domain"}).to_dict()) >= set(PRESETS["domain"])
@@ -67,6 +89,7 @@ def test_the_run_records_every_range_drawn_and_the_controller_family():
 @pytest.mark.parametrize("bad, message", [({"latency": 2}, "latency is 0 or 1"), ({"relief": 1.5}, "relief"),
                                           ({"stiffness": 1.0}, "relative"), ({"preset": "moon"}, "unknown"),
                                           ({"speed": -0.12}, "speed must be a finite number >= 0"),
+                                          ({"push": 2.5}, "push is the shove's range.* <= 2"),
                                           ({"bristle": 1.0, "bristle_from": 2.0}, "bristle_from"),
                                           ({"touch": 0.02}, "touch .* <= 0.01"), ({"touch": -0.001}, "touch"),
                                           ({"texture": 0.002}, "give roughness too"),

@@ -127,3 +127,29 @@ def test_the_clock_is_a_step_count_and_the_record_starts_at_t0():
     # free fall from the very first step: z(t) = z0 - g t^2 / 2 at the recorded times
     z = r["traj"]["x"][:, 2, 0]
     assert np.max(np.abs(z - (0.5 - 0.5 * 9.81 * t.astype(float) ** 2))) < 9.81 * 6.0 * m.dt
+
+
+def test_a_shove_adds_its_velocity_to_every_body_once_at_its_step():
+    """``Variation.push`` (perturb ``push``): a trotting robot lifted 1 m falls free for 0.3 s.  With no contact a
+    velocity added to every body changes nothing else (Galilean invariance): each body's velocity differs from the
+    same episode without the shove by exactly the shove after its step (float32, 1e-5 m/s; measured ~1e-7), and not
+    at all (bit for bit) before it."""
+    from cpgjax.sim.variation import Variation
+
+    quad = load_model(QUAD, pipeline="exact")
+    B = 4
+    push = np.array([[0.3, -0.2, 0, 0], [-0.1, 0.25, 0, 0], [0, 0, 0, 0]], np.float32)
+    at = jax.numpy.asarray([0.5, 0.25, 0.5, 0.25], np.float32)
+    var = Variation.nominal(quad, B)._replace(lift=jax.numpy.full((B,), 1.0), push=jax.numpy.asarray(push),
+                                              push_at=at)
+    c = np.broadcast_to(read_ctl(TROT, n_dof=8, harmonics=2).coeffs[..., None], (8, 5, B))
+    r = jax.jit(lambda c, v: rollout(quad, c, time=TINY_TIME, var=v, probes=(Record(),)))(c, var)
+    t, v = np.asarray(r["traj"]["t"]), np.asarray(r["traj"]["v"])          # v [S, 3, nb, B]
+    steps = round(TINY_TIME / quad.dt)
+    for b, share in enumerate((0.5, 0.25)):
+        when = (np.floor(np.float32(share) * steps) + 1) * quad.dt          # the shove's time
+        dv = v[..., b] - v[..., b + 2]                                      # [S, 3, nb]: against no shove
+        before, after = t < when - 1e-6, t > when + 1e-6
+        assert before.sum() >= 2 and after.sum() >= 1
+        np.testing.assert_array_equal(dv[before], 0.0)
+        np.testing.assert_allclose(dv[after], np.broadcast_to(push[:, b, None], dv[after].shape), atol=1e-5)
