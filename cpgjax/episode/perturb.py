@@ -184,7 +184,7 @@ MEANING = {
               "to this, 0 to 1 (1: anywhere from flat to fully rough, or stairs from none to full height)",
     "texture": "with roughness: a fine relief, heights from 0 to this on 2.5 cm cells, added to the rough field, m "
                "(e.g. 0.002: a foot that skims the ground in its swing catches on it, as on MuJoCo's triangles)",
-    "push": "a shove: once per episode, at a time drawn from 20-80 % of it, every body's velocity changes by "
+    "push": "a shove: once per episode, at a time drawn between 0.2 and 0.8 of it, every body's velocity changes by "
             "U(-x, x) m/s in x and y (e.g. 0.2: a gait must recover from a stumble)",
     "noise": "closed-loop controllers only: sensor noise, its standard deviation in each sensor's typical size",
     "latency": "closed-loop controllers only: 0 or 1 step between sensing and acting",
