@@ -12,6 +12,7 @@ from typing import Any
 from cpgjax.cli import options as o
 from cpgjax.crosscheck.ground import GROUND_FORMS, ground_form
 from cpgjax.crosscheck.impedance import CONTACT_LAWS, contact_law
+from cpgjax.crosscheck.mjcf import CONES, friction_cone
 from cpgjax.episode.cpg import GENE_BOX
 
 
@@ -110,12 +111,17 @@ def mujoco_contact_option(p: argparse.ArgumentParser) -> None:
                    help="MuJoCo C's contact stiffness and damping: resting (default: per unit mass, for the mass a "
                         "resting foot carries) or per-contact (each step divided by each touching foot's own "
                         "effective mass: eq. 3.7's force per metre, as here; docs/crosscheck.md)")
+    p.add_argument("--mujoco-cone", choices=CONES, default=None,
+                   help="MuJoCo C's friction cone: pyramidal (default, MuJoCo's own) or elliptic (the circular cone "
+                        "|f_t| <= mu f_r that ours is; the pyramidal one makes MuJoCo's ground softer as mu grows: "
+                        "docs/crosscheck.md)")
 
 
 @contextlib.contextmanager
 def mujoco_ground(args: argparse.Namespace):
     """Within this block MuJoCo C's ground has the form and the contact law ``args`` ask for."""
-    with ground_form(getattr(args, "mujoco_ground", None)), contact_law(getattr(args, "mujoco_contact", None)):
+    with ground_form(getattr(args, "mujoco_ground", None)), contact_law(getattr(args, "mujoco_contact", None)), \
+            friction_cone(getattr(args, "mujoco_cone", None)):
         yield
 
 
@@ -275,6 +281,9 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.mujoco_contact is not None:
         here.append(f"MuJoCo's contact {args.mujoco_contact}")
         summary["mujoco_contact"] = args.mujoco_contact
+    if args.mujoco_cone is not None:
+        here.append(f"MuJoCo's friction cone {args.mujoco_cone}")
+        summary["mujoco_cone"] = args.mujoco_cone
     if args.joint_spring is not None:
         here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
         summary["joint_spring"] = list(args.joint_spring)
