@@ -92,3 +92,28 @@ def test_with_the_pyramidal_cone_mujocos_ground_softens_as_mu_grows_with_the_ell
     p1, p25 = _resting_depth("pyramidal", 1.0), _resting_depth("pyramidal", 2.5)
     assert abs(e25 - e1) < 0.01 * e1, (e1, e25)
     assert p25 > 5 * p1, (p1, p25)
+
+
+def test_a_box_landing_at_the_quadrupeds_mu_sinks_as_eq_3_7_says_with_the_elliptic_cone_only():
+    """The export's ``solref`` makes a body landing on its contacts sink as eq. 3.7's closed form says
+    (tests/crosscheck/test_mjcf.py, at mu 1).  At the quadruped's mu = 2.5, a 1 kg box dropped 1 cm onto its four
+    corners sinks 0.100 mm in MuJoCo with the elliptic cone, as at mu 1 (eq. 3.7: 0.104 mm), and 0.156 mm with the
+    pyramidal one (measured; 13.8 kg: 1.04 and 1.37 mm against eq. 3.7's 1.18).  Tolerances: 15 % of eq. 3.7's
+    depth (test_mjcf.py's), and the pyramidal cone's at least 1.3 times the elliptic's."""
+    import mujoco
+    from simcases import box
+    from test_mjcf import _max_penetration_closed_form
+
+    m = box(z=0.06, mass=1.0, friction=2.5, log_rate=2000)
+    expect = _max_penetration_closed_form(1.0, 4, m.ground_A, m.ground_B, np.sqrt(2 * 9.81 * 0.01))
+    deepest = {}
+    for cone in CONES:
+        mj = load(m, timestep=2e-5, cone=cone)
+        d = mujoco.MjData(mj)
+        deepest[cone] = 0.0
+        for _ in range(2500):                        # 50 ms: the landing's deepest point comes within 10 ms
+            mujoco.mj_step(mj, d)
+            if d.ncon:
+                deepest[cone] = max(deepest[cone], -float(d.contact.dist[: d.ncon].min()))
+    assert abs(deepest["elliptic"] - expect) < 0.15 * expect, (deepest, expect)
+    assert deepest["pyramidal"] > 1.3 * deepest["elliptic"], deepest
