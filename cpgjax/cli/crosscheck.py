@@ -12,7 +12,7 @@ from typing import Any
 from cpgjax.cli import options as o
 from cpgjax.crosscheck.ground import GROUND_FORMS, ground_form
 from cpgjax.crosscheck.impedance import CONTACT_LAWS, contact_law
-from cpgjax.crosscheck.mjcf import CONES, friction_cone
+from cpgjax.crosscheck.mjcf import CONES, cone_note, friction_cone
 from cpgjax.episode.cpg import GENE_BOX
 
 
@@ -186,6 +186,9 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
         coeffs, labels = coeffs[: args.n], labels[: args.n]
     T = rp.time or model.episode.time_max
     note = rough_step_note([model.terrain.spec], args.mujoco_dt)
+    if note:
+        print(note, file=sys.stderr)
+    note = cone_note(model.mu_static, args.mujoco_cone or "pyramidal")
     if note:
         print(note, file=sys.stderr)
     with mujoco_ground(args):

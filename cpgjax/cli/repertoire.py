@@ -389,11 +389,14 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         print(f"header: {rp.note}", flush=True)
     if engine != "ours":
         from cpgjax.cli.crosscheck import rough_step_note
+        from cpgjax.crosscheck.mjcf import cone_note
         from cpgjax.io.wl import load_model
 
-        note = rough_step_note([load_model(args.model).terrain.spec], args.mujoco_dt)
-        if note:
-            print(note, file=sys.stderr)
+        m = load_model(args.model)
+        for note in (rough_step_note([m.terrain.spec], args.mujoco_dt),
+                     cone_note(m.mu_static, args.mujoco_cone or "pyramidal")):
+            if note:
+                print(note, file=sys.stderr)
     from cpgjax.cli.crosscheck import mujoco_ground
 
     with mujoco_ground(args):

@@ -79,6 +79,21 @@ CONES = ("pyramidal", "elliptic")
 _CONE: contextvars.ContextVar[str] = contextvars.ContextVar("mujoco_cone", default="pyramidal")
 
 
+#: Above this friction coefficient the pyramidal cone's ground gives way: the standing quadruped rests 2.8 mm deep at
+#: mu 3, 8.4 mm at 4 and 22 mm at 5, where its trot no longer walks (docs/results/friction-cone.md).
+PYRAMID_MU_MAX = 3.0
+
+
+def cone_note(mu: float, cone: str | None = None) -> str | None:
+    """A one-line note when MuJoCo runs the pyramidal cone (``cone``, else the enclosing :func:`friction_cone`'s) on
+    a ground of friction ``mu`` above :data:`PYRAMID_MU_MAX`, else None."""
+    if (current_cone() if cone is None else check_cone(cone)) != "pyramidal" or mu <= PYRAMID_MU_MAX:
+        return None
+    return (f"note: the model's friction {mu:g} is above {PYRAMID_MU_MAX:g}, where MuJoCo's pyramidal friction cone "
+            "lets its ground give way (feet sink centimetres); add --mujoco-cone elliptic (docs/crosscheck.md, "
+            "the friction cone)")
+
+
 def check_cone(cone: str) -> str:
     if cone not in CONES:
         raise ValueError(f"MuJoCo's friction cone must be one of {', '.join(CONES)}, got {cone!r}")

@@ -117,3 +117,18 @@ def test_a_box_landing_at_the_quadrupeds_mu_sinks_as_eq_3_7_says_with_the_ellipt
                 deepest[cone] = max(deepest[cone], -float(d.contact.dist[: d.ncon].min()))
     assert abs(deepest["elliptic"] - expect) < 0.15 * expect, (deepest, expect)
     assert deepest["pyramidal"] > 1.3 * deepest["elliptic"], deepest
+
+
+def test_a_model_whose_friction_the_pyramidal_cone_cannot_hold_gets_a_note():
+    """Above mu 3 the pyramidal cone's ground gives way (the standing quadruped rests 21.9 mm deep at mu 5,
+    docs/results/friction-cone.md): ``crosscheck`` and ``follow --engine mujoco`` print this note, naming the fix;
+    none at the quadruped's 2.5, nor with the elliptic cone."""
+    from cpgjax.crosscheck.mjcf import PYRAMID_MU_MAX, cone_note
+
+    assert PYRAMID_MU_MAX == 3.0
+    assert cone_note(2.5) is None and cone_note(5.0, "elliptic") is None
+    note = cone_note(5.0, "pyramidal")
+    assert note is not None and "--mujoco-cone elliptic" in note and "\n" not in note
+    with friction_cone("elliptic"):
+        assert cone_note(5.0) is None
+    assert _resting_depth("pyramidal", 5.0) > 0.01      # measured 21.9 mm: the ground gives way
