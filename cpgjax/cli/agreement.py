@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 from typing import Any
 
 from cpgjax.cli import options as o
@@ -69,6 +70,11 @@ def cmd_agreement(args: argparse.Namespace) -> int:
     if args.out:
         o.check_output_dir(args.out)
     files = run_files(args.runs)
+    from cpgjax.cli.crosscheck import _runs_cone_note
+
+    note = _runs_cone_note(files, args.mujoco_cone)
+    if note:
+        print(note, file=sys.stderr)
     ours = None
     if args.friction_spring:
         ours = {"friction_k": float(args.friction_spring[0]), "friction_b": float(args.friction_spring[1])}

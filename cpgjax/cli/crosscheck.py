@@ -146,6 +146,22 @@ def rough_step_note(terrains, mujoco_dt) -> str | None:
     return None
 
 
+def _runs_cone_note(files, cone: str | None) -> str | None:
+    """:func:`~cpgjax.crosscheck.mjcf.cone_note` for the highest friction of the run files' models (from their
+    attributes alone)."""
+    import json
+
+    from cpgjax.io.results import read_attrs
+    from cpgjax.io.wl import parse_wl
+
+    mus = []
+    for p in files:
+        meta = json.loads(read_attrs(p).get("meta") or "{}")
+        if meta.get("model_text"):
+            mus.append(float(parse_wl(str(meta["model_text"]), str(meta.get("model_path", p))).friction))
+    return cone_note(max(mus), cone or "pyramidal") if mus else None
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from cpgjax.crosscheck.mjcf import load, to_mjcf
     from cpgjax.io.wl import load_model
@@ -246,6 +262,9 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     terrains = [args.terrain] if args.terrain else [
         transfer.evolved_terrain(json.loads(read_attrs(p).get("meta") or "{}")) for p in files]
     note = rough_step_note(terrains, args.mujoco_dt)
+    if note:
+        print(note, file=sys.stderr)
+    note = _runs_cone_note(files, args.mujoco_cone)
     if note:
         print(note, file=sys.stderr)
     pick, here = None, []

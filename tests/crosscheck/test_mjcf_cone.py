@@ -121,7 +121,8 @@ def test_a_box_landing_at_the_quadrupeds_mu_sinks_as_eq_3_7_says_with_the_ellipt
 
 def test_a_model_whose_friction_the_pyramidal_cone_cannot_hold_gets_a_note():
     """Above mu 3 the pyramidal cone's ground gives way (the standing quadruped rests 21.9 mm deep at mu 5,
-    docs/results/friction-cone.md): ``crosscheck`` and ``follow --engine mujoco`` print this note, naming the fix;
+    docs/results/friction-cone.md): ``crosscheck``, ``transfer``, ``agreement`` and ``follow --engine mujoco`` print
+    this note, naming the fix;
     none at the quadruped's 2.5, nor with the elliptic cone."""
     from cpgjax.crosscheck.mjcf import PYRAMID_MU_MAX, cone_note
 
@@ -132,3 +133,27 @@ def test_a_model_whose_friction_the_pyramidal_cone_cannot_hold_gets_a_note():
     with friction_cone("elliptic"):
         assert cone_note(5.0) is None
     assert _resting_depth("pyramidal", 5.0) > 0.01      # measured 21.9 mm: the ground gives way
+
+
+def test_transfer_notes_a_run_whose_models_friction_the_pyramidal_cone_cannot_hold(tmp_path):
+    """``transfer`` and ``agreement`` read the model from each run file's attributes: the note names the highest
+    friction of them (cli/crosscheck.py: ``_runs_cone_note``)."""
+    import json
+
+    import h5py
+
+    from cpgjax.cli.crosscheck import _runs_cone_note
+    from cpgjax.io.results import FORMAT
+
+    text = open("models/worm.wl").read()
+    paths = []
+    for k, mu in enumerate((2.5, 5.0)):
+        p = tmp_path / f"r{k}.h5"
+        with h5py.File(p, "w") as f:
+            f.attrs.update(format=FORMAT, kind="ga", config="{}", completed=0, population=2, n_genes=1,
+                           meta=json.dumps({"model_text": text.replace("Friction      2.5", f"Friction {mu}"),
+                                             "model_path": "worm.wl"}))
+        paths.append(str(p))
+    assert _runs_cone_note(paths[:1], None) is None
+    assert "friction 5 is above 3" in _runs_cone_note(paths, None)
+    assert _runs_cone_note(paths, "elliptic") is None
