@@ -24,6 +24,9 @@ def register(subparsers: Any) -> None:
     e.add_argument("--ground", choices=GROUND_FORMS, default="hfield",
                    help="the form of a non-flat ground in MuJoCo: hfield (default), mesh (a convex mesh per triangle "
                         "of the heightfield) or boxes (a tilted box per cell); docs/crosscheck.md")
+    e.add_argument("--cone", choices=CONES, default="pyramidal",
+                   help="MuJoCo's friction cone: pyramidal (default, MuJoCo's own) or elliptic (circular as ours, "
+                        "needed above friction 3, where the pyramidal lets the ground give way; docs/crosscheck.md)")
     e.set_defaults(func=cmd_export)
 
     c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
@@ -169,8 +172,11 @@ def cmd_export(args: argparse.Namespace) -> int:
     out = args.out or os.path.splitext(args.model)[0] + ".xml"
     o.check_output_file(out)
     model = load_model(args.model, terrain=args.terrain)
-    text = to_mjcf(model, ground=args.ground)
-    mj = load(model, ground=args.ground)  # proves that MuJoCo loads it (before anything is written)
+    note = cone_note(model.mu_static, args.cone)
+    if note:
+        print(note.replace("--mujoco-cone", "--cone"), file=sys.stderr)
+    text = to_mjcf(model, ground=args.ground, cone=args.cone)
+    mj = load(model, ground=args.ground, cone=args.cone)  # proves that MuJoCo loads it (before anything is written)
     with open(out, "w") as f:
         f.write(text)
     print(f"wrote {out}: {mj.nbody - 1} bodies, {mj.njnt} joints, {mj.nu} actuators, "

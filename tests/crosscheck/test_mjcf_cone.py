@@ -157,3 +157,22 @@ def test_transfer_notes_a_run_whose_models_friction_the_pyramidal_cone_cannot_ho
     assert _runs_cone_note(paths[:1], None) is None
     assert "friction 5 is above 3" in _runs_cone_note(paths, None)
     assert _runs_cone_note(paths, "elliptic") is None
+
+
+def test_export_writes_the_cone_asked_for(tmp_path, capsys):
+    """``cpgjax export --cone elliptic`` writes MuJoCo's elliptic cone; the default file is as before; a model of
+    mu 5 exported with the pyramidal cone gets the note (naming ``--cone``), with the elliptic one none."""
+    from cpgjax import cli
+
+    text = open("models/worm.wl").read()
+    (tmp_path / "worm.wl").write_text(text.replace("Friction      2.5", "Friction 5"))
+    assert cli.main(["export", "models/worm.wl", "--out", str(tmp_path / "p.xml")]) == 0
+    assert cli.main(["export", "models/worm.wl", "--cone", "elliptic", "--out", str(tmp_path / "e.xml")]) == 0
+    assert "cone=" not in (tmp_path / "p.xml").read_text()
+    assert 'cone="elliptic"' in (tmp_path / "e.xml").read_text()
+    capsys.readouterr()
+    assert cli.main(["export", str(tmp_path / "worm.wl"), "--out", str(tmp_path / "w5.xml")]) == 0
+    assert "add --cone elliptic" in capsys.readouterr().err
+    assert cli.main(["export", str(tmp_path / "worm.wl"), "--cone", "elliptic",
+                     "--out", str(tmp_path / "w5e.xml")]) == 0
+    assert "note" not in capsys.readouterr().err
