@@ -70,9 +70,9 @@ def cmd_agreement(args: argparse.Namespace) -> int:
     if args.out:
         o.check_output_dir(args.out)
     files = run_files(args.runs)
-    from cpgjax.cli.crosscheck import _runs_cone_note
+    from cpgjax.cli.crosscheck import runs_cone_note
 
-    note = _runs_cone_note(files, args.mujoco_cone)
+    note = runs_cone_note(files, args.mujoco_cone)
     if note:
         print(note, file=sys.stderr)
     ours = None

@@ -149,7 +149,7 @@ def rough_step_note(terrains, mujoco_dt) -> str | None:
     return None
 
 
-def _runs_cone_note(files, cone: str | None) -> str | None:
+def runs_cone_note(files, cone: str | None) -> str | None:
     """:func:`~cpgjax.crosscheck.mjcf.cone_note` for the highest friction of the run files' models (from their
     attributes alone)."""
     import json
@@ -270,7 +270,7 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     note = rough_step_note(terrains, args.mujoco_dt)
     if note:
         print(note, file=sys.stderr)
-    note = _runs_cone_note(files, args.mujoco_cone)
+    note = runs_cone_note(files, args.mujoco_cone)
     if note:
         print(note, file=sys.stderr)
     pick, here = None, []

@@ -137,12 +137,12 @@ def test_a_model_whose_friction_the_pyramidal_cone_cannot_hold_gets_a_note():
 
 def test_transfer_notes_a_run_whose_models_friction_the_pyramidal_cone_cannot_hold(tmp_path):
     """``transfer`` and ``agreement`` read the model from each run file's attributes: the note names the highest
-    friction of them (cli/crosscheck.py: ``_runs_cone_note``)."""
+    friction of them (cli/crosscheck.py: ``runs_cone_note``)."""
     import json
 
     import h5py
 
-    from cpgjax.cli.crosscheck import _runs_cone_note
+    from cpgjax.cli.crosscheck import runs_cone_note
     from cpgjax.io.results import FORMAT
 
     text = open("models/worm.wl").read()
@@ -154,9 +154,9 @@ def test_transfer_notes_a_run_whose_models_friction_the_pyramidal_cone_cannot_ho
                            meta=json.dumps({"model_text": text.replace("Friction      2.5", f"Friction {mu}"),
                                              "model_path": "worm.wl"}))
         paths.append(str(p))
-    assert _runs_cone_note(paths[:1], None) is None
-    assert "friction 5 is above 3" in _runs_cone_note(paths, None)
-    assert _runs_cone_note(paths, "elliptic") is None
+    assert runs_cone_note(paths[:1], None) is None
+    assert "friction 5 is above 3" in runs_cone_note(paths, None)
+    assert runs_cone_note(paths, "elliptic") is None
 
 
 def test_export_writes_the_cone_asked_for(tmp_path, capsys):
