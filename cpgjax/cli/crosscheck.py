@@ -12,7 +12,7 @@ from typing import Any
 from cpgjax.cli import options as o
 from cpgjax.crosscheck.ground import GROUND_FORMS, ground_form
 from cpgjax.crosscheck.impedance import CONTACT_LAWS, contact_law
-from cpgjax.crosscheck.mjcf import CONES, cone_note, friction_cone
+from cpgjax.crosscheck.mjcf import CONES, cone_note, contact_stiffness, friction_cone
 from cpgjax.episode.cpg import GENE_BOX
 
 
@@ -56,6 +56,9 @@ def register(subparsers: Any) -> None:
                    help="MuJoCo C's integration step (default: the export's, 2 ms; on rough ground use 0.00025, "
                         "where fast gaits' verdicts settle: docs/crosscheck.md); the ceiling runs it at half that")
     mujoco_ground_option(c)
+    c.add_argument("--mujoco-stiffness", type=o.positive, default=None, metavar="SCALE",
+                   help="MuJoCo's contact stiffness and damping (its solref) scaled by this (default: as exported, "
+                        "1; docs/results/friction-cone.md); MuJoCo's side only")
     c.add_argument("--out", default="runs/crosscheck",
                    help="directory for the table and plots (default runs/crosscheck)")
     c.set_defaults(func=cmd_crosscheck)
@@ -122,9 +125,11 @@ def mujoco_contact_option(p: argparse.ArgumentParser) -> None:
 
 @contextlib.contextmanager
 def mujoco_ground(args: argparse.Namespace):
-    """Within this block MuJoCo C's ground has the form and the contact law ``args`` ask for."""
-    with ground_form(getattr(args, "mujoco_ground", None)), contact_law(getattr(args, "mujoco_contact", None)), \
-            friction_cone(getattr(args, "mujoco_cone", None)):
+    """Within this block MuJoCo C's ground has the form, the contact law, the friction cone and the contact stiffness
+    ``args`` ask for (the options each command has)."""
+    g = lambda name: getattr(args, name, None)      # noqa: E731
+    with ground_form(g("mujoco_ground")), contact_law(g("mujoco_contact")), friction_cone(g("mujoco_cone")), \
+            contact_stiffness(g("mujoco_stiffness")):
         yield
 
 

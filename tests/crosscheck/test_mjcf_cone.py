@@ -176,3 +176,19 @@ def test_export_writes_the_cone_asked_for(tmp_path, capsys):
     assert cli.main(["export", str(tmp_path / "worm.wl"), "--cone", "elliptic",
                      "--out", str(tmp_path / "w5e.xml")]) == 0
     assert "note" not in capsys.readouterr().err
+
+
+def test_the_commands_cone_and_stiffness_options_reach_the_export():
+    """``--mujoco-cone`` and ``--mujoco-stiffness`` (``crosscheck``; the cone also ``transfer``, ``agreement`` and
+    ``follow``) are in force for every model the command exports, and only within it."""
+    import argparse
+
+    from cpgjax.cli.crosscheck import mujoco_ground
+    from cpgjax.crosscheck.mjcf import contact_solref
+
+    m = load_model("models/worm.wl")
+    k, b = (float(v) for v in contact_solref(m).split())
+    with mujoco_ground(argparse.Namespace(mujoco_cone="elliptic", mujoco_stiffness=0.5)):
+        text = to_mjcf(m)
+        assert [float(v) for v in contact_solref(m).split()] == pytest.approx([0.5 * k, 0.5 * b])
+    assert 'cone="elliptic"' in text and to_mjcf(m) == to_mjcf(m, cone="pyramidal")
