@@ -177,9 +177,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     out = args.out or os.path.splitext(args.model)[0] + ".xml"
     o.check_output_file(out)
     model = load_model(args.model, terrain=args.terrain)
-    note = cone_note(model.mu_static, args.cone)
+    note = cone_note(model.mu_static, args.cone, flag="--cone")
     if note:
-        print(note.replace("--mujoco-cone", "--cone"), file=sys.stderr)
+        print(note, file=sys.stderr)
     text = to_mjcf(model, ground=args.ground, cone=args.cone)
     mj = load(model, ground=args.ground, cone=args.cone)  # proves that MuJoCo loads it (before anything is written)
     with open(out, "w") as f:

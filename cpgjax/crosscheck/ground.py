@@ -19,11 +19,12 @@ foot inside it.
 
 from __future__ import annotations
 
-import contextlib
 import contextvars
 import xml.etree.ElementTree as ET
 
 import numpy as np
+
+from cpgjax.crosscheck.scoped import scoped
 
 GROUND_FORMS = ("hfield", "mesh", "boxes")
 PIECE_DEPTH = 0.03   # m: a piece's thickness below its lowest corner (3 radii of a foot sphere)
@@ -46,18 +47,10 @@ def current_form() -> str:
     return _FORM.get()
 
 
-@contextlib.contextmanager
 def ground_form(form: str | None):
     """Within this block every MuJoCo export (``mjcf.to_mjcf``, ``mjcf.load``) gives the ground this form (None:
     unchanged), so that commands that run MuJoCo (crosscheck, transfer) take it without threading it through."""
-    if form is None:
-        yield
-        return
-    token = _FORM.set(check_form(form))
-    try:
-        yield
-    finally:
-        _FORM.reset(token)
+    return scoped(_FORM, None if form is None else check_form(form))
 
 
 def walk_region(model) -> tuple[float, float, float, float]:

@@ -22,10 +22,11 @@ model it is given); MJX keeps ``resting``.
 
 from __future__ import annotations
 
-import contextlib
 import contextvars
 
 import numpy as np
+
+from cpgjax.crosscheck.scoped import scoped
 
 CONTACT_LAWS = ("resting", "per-contact")
 _LAW: contextvars.ContextVar[str] = contextvars.ContextVar("mujoco_contact", default="resting")
@@ -43,17 +44,9 @@ def current_law() -> str:
     return _LAW.get()
 
 
-@contextlib.contextmanager
 def contact_law(law: str | None):
     """Within this block MuJoCo C's runs (and the exports they load) use ``law`` (None: unchanged)."""
-    if law is None:
-        yield
-        return
-    token = _LAW.set(check_law(law))
-    try:
-        yield
-    finally:
-        _LAW.reset(token)
+    return scoped(_LAW, None if law is None else check_law(law))
 
 
 def contact_geoms(model, mj) -> np.ndarray:

@@ -31,13 +31,13 @@ sphere a point foot at the vertex (docs/crosscheck.md, *Rough ground*).
 
 from __future__ import annotations
 
-import contextlib
 import contextvars
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
 from cpgjax.crosscheck.ground import add_ground, check_form, course_ground, current_form, hfield_geom, ledge_boxes
+from cpgjax.crosscheck.scoped import scoped
 from cpgjax.sim.course import rough_spans
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
 from cpgjax.sim.terrain import EXTENT_X, EXTENT_Y
@@ -84,13 +84,13 @@ _CONE: contextvars.ContextVar[str] = contextvars.ContextVar("mujoco_cone", defau
 PYRAMID_MU_MAX = 3.0
 
 
-def cone_note(mu: float, cone: str | None = None) -> str | None:
+def cone_note(mu: float, cone: str | None = None, flag: str = "--mujoco-cone") -> str | None:
     """A one-line note when MuJoCo runs the pyramidal cone (``cone``, else the enclosing :func:`friction_cone`'s) on
-    a ground of friction ``mu`` above :data:`PYRAMID_MU_MAX`, else None."""
+    a ground of friction ``mu`` above :data:`PYRAMID_MU_MAX`, else None; ``flag``: the option that fixes it."""
     if (current_cone() if cone is None else check_cone(cone)) != "pyramidal" or mu <= PYRAMID_MU_MAX:
         return None
     return (f"note: the model's friction {mu:g} is above {PYRAMID_MU_MAX:g}, where MuJoCo's pyramidal friction cone "
-            "lets its ground give way (feet sink centimetres); add --mujoco-cone elliptic (docs/crosscheck.md, "
+            f"lets its ground give way (feet sink centimetres); add {flag} elliptic (docs/crosscheck.md, "
             "the friction cone)")
 
 
@@ -105,34 +105,18 @@ def current_cone() -> str:
     return _CONE.get()
 
 
-@contextlib.contextmanager
 def friction_cone(cone: str | None):
     """Within this block every export gives MuJoCo this friction cone (None: as exported, pyramidal)."""
-    if cone is None:
-        yield
-        return
-    token = _CONE.set(check_cone(cone))
-    try:
-        yield
-    finally:
-        _CONE.reset(token)
+    return scoped(_CONE, None if cone is None else check_cone(cone))
 
 
-@contextlib.contextmanager
 def contact_stiffness(scale: float | None):
     """Within this block every export scales MuJoCo's contact ``solref`` (stiffness and damping alike) by ``scale``
     (None or 1: as :func:`contact_solref` derives it): a ground as stiff as ours in MuJoCo's feet's depth, to see
     whether the depth decides a verdict (``cpgjax agreement --mujoco-stiffness``; docs/results/walker.md)."""
-    if scale is None:
-        yield
-        return
-    if not (np.isfinite(scale) and scale > 0):
+    if scale is not None and not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"MuJoCo's contact stiffness scale must be a number > 0, got {scale}")
-    token = _STIFFNESS.set(float(scale))
-    try:
-        yield
-    finally:
-        _STIFFNESS.reset(token)
+    return scoped(_STIFFNESS, None if scale is None else float(scale))
 
 
 def contact_solref(model) -> str:
