@@ -32,6 +32,18 @@ def test_quadruped_matches_appendix_c():
     assert np.allclose(m.j_lo, -1.5) and np.allclose(m.j_hi, 1.5)
 
 
+def test_grip_is_the_quadruped_with_feet_that_grip():
+    """models/quadruped-grip.wl is models/quadruped.wl, line for line, but for its header and one line: a friction
+    bristle 100 times stiffer and 10 times more damped than the default (sim.model's DEFAULT_FRICTION_K, _B)."""
+    def body(name):
+        return [ln for ln in open(f"models/{name}.wl").read().splitlines() if ln.strip() and not ln.startswith("#")]
+    grip, quad = body("quadruped-grip"), body("quadruped")
+    extra = [ln for ln in grip if ln.startswith("FrictionSpring")]
+    assert len(extra) == 1 and [ln for ln in grip if ln not in extra] == quad
+    g, q = load_model("models/quadruped-grip.wl"), load_model("models/quadruped.wl")
+    assert (g.friction_k, g.friction_b) == (100 * q.friction_k, 10 * q.friction_b) == (1e5, 3000)
+
+
 @pytest.mark.slow  # 12 s, its 0.1 ms step
 def test_car_rolls_down_its_ramp():
     """1.5 s of its 3.5 s episode (0.1 ms steps: the slowest example).  Rolling without slipping down the

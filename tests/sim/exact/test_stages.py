@@ -178,11 +178,14 @@ def _tree_descendants(parent):
 
 
 def test_every_model_is_checked_here():
-    """Every model in models/ is one of the cases below, or the stiff quadruped, whose exported MJCF is the
-    quadruped's (its pivot springs, which MJCF has not, are all that differ): its stages are the quadruped's."""
-    assert sorted(p.name for p in MODELS.glob("*.wl")) == sorted(CASES + ["quadruped-stiff.wl"])
-    stiff = to_mjcf(load_model(MODELS / "quadruped-stiff.wl", pipeline="exact"))
-    assert stiff.replace("quadruped-stiff.wl", "quadruped.wl") == to_mjcf(load_model(MODELS / "quadruped.wl"))
+    """Every model in models/ is one of the cases below, or a variant of the quadruped whose exported MJCF is the
+    quadruped's: the stiff one (its pivot springs, which MJCF has not, are all that differ) and the one whose feet
+    grip (its friction bristle, which MJCF has not either).  Their stages are the quadruped's."""
+    variants = ["quadruped-stiff.wl", "quadruped-grip.wl"]
+    assert sorted(p.name for p in MODELS.glob("*.wl")) == sorted(CASES + variants)
+    base = to_mjcf(load_model(MODELS / "quadruped.wl"))
+    for name in variants:
+        assert to_mjcf(load_model(MODELS / name, pipeline="exact")).replace(name, "quadruped.wl") == base, name
 
 
 CASES = ["quadruped.wl", "worm.wl", "car.wl", "hexapod.wl"]
