@@ -77,6 +77,13 @@ def ledge_level(led: Ledges, y):
     return lv[jnp.searchsorted(edges, y, side="right") + 1]
 
 
+def ledge_level_np(led: Ledges, y: np.ndarray) -> np.ndarray:
+    """:func:`ledge_level` in numpy, for float32 ``y``: the same bits."""
+    edges = np.asarray(led.edges, np.float32)
+    lv = np.asarray(led.levels, np.float32)
+    return lv[np.searchsorted(edges, y, side="right")]
+
+
 def riser_exit(led: Ledges, y, z, surface, scale=1.0):
     """The nearest way out sideways of points at ``(y, z)`` under the ground: (distance to the riser, m; its
     direction along y, -1 or +1).  ``surface``: the ground's height over the points (the profile's level times

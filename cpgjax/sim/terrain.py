@@ -61,10 +61,33 @@ class Terrain:
         return self.heights is None and self.ledges is None
 
     def height_np(self, x, y):
-        """Heights at numpy points (for plotting and exports)."""
+        """Heights at numpy points (for plotting, exports and the perturbed grounds), float32: the height of
+        :func:`height_and_normal` computed in numpy, operation by operation as JAX runs it op by op, so the same
+        bits on every host and no program to compile (a jitted one may fuse a product and a sum into one
+        rounding where the CPU has FMA; ``tests/sim/test_terrain.py`` compares the two)."""
         if self.flat:
             return np.zeros_like(np.asarray(x, float))
-        return np.asarray(height_and_normal(self, jnp.asarray(x), jnp.asarray(y))[0])
+        x, y = np.asarray(x, np.float32), np.asarray(y, np.float32)
+        one = np.float32(1.0)
+        if self.heights is None:
+            z = np.zeros_like(x)
+        else:
+            h = np.asarray(self.heights, np.float32).reshape(-1)
+            ny, nx = self.heights.shape
+            f32 = np.float32
+            # XLA divides by a constant as it multiplies by the constant's float32 reciprocal
+            u = np.clip((x - f32(self.x0)) * (one / f32(self.dx)), f32(0.0), f32(nx - 1.000001))
+            v = np.clip((y - f32(self.y0)) * (one / f32(self.dy)), f32(0.0), f32(ny - 1.000001))
+            ix, iy = np.floor(u).astype(np.int32), np.floor(v).astype(np.int32)
+            fx, fy = u - ix.astype(np.float32), v - iy.astype(np.float32)
+            i00 = iy * nx + ix
+            last = h.size - 1       # JAX clamps an index past the end (where u or v rounds up to the last row)
+            h00, h01 = h[np.minimum(i00, last)], h[np.minimum(i00 + 1, last)]
+            h10, h11 = h[np.minimum(i00 + nx, last)], h[np.minimum(i00 + nx + 1, last)]
+            z = (one - fy) * ((one - fx) * h00 + fx * h01) + fy * ((one - fx) * h10 + fx * h11)
+        if self.ledges is not None:
+            z = z + _ledges.ledge_level_np(self.ledges, y)
+        return z
 
 
 def _grid(extent_x, extent_y, cell):
