@@ -98,7 +98,8 @@ def test_a_robot_starts_on_its_terrain_never_in_it():
     assert start_lift(make_terrain("flat"), feet - 1.0) == 0.0          # flat ground: never moved
 
 
-@pytest.mark.parametrize("spec", ["rough:0.02:0.07:4", "course:flat:0.5,rough:0.02:1,stairs:0.04:0.3:3,bar:0.03,flat:1"])
+@pytest.mark.parametrize("spec", ["rough:0.02:0.07:4",
+                                  "course:flat:0.5,rough:0.02:1,stairs:0.04:0.3:3,bar:0.03,flat:1"])
 def test_heights_in_numpy_are_the_heights_jax_computes_op_by_op(spec):
     """``Terrain.height_np`` (exports, plots, the perturbed grounds) is numpy, operation by operation as JAX runs the
     height of :func:`height_and_normal` op by op: the same bits on any host (each operation one IEEE rounding; checked
