@@ -45,9 +45,10 @@ class Ledges:
     edges: np.ndarray
     levels: np.ndarray
 
-    def level_np(self, y) -> np.ndarray:
-        """The profile's height at numpy ``y``."""
-        return np.asarray(self.levels)[np.searchsorted(self.edges, np.asarray(y, float), side="right")]
+    def level_np(self, y, dtype=float) -> np.ndarray:
+        """The profile's height at numpy ``y``, computed in ``dtype`` (float32: :func:`ledge_level`'s bits)."""
+        return np.asarray(self.levels, dtype)[np.searchsorted(np.asarray(self.edges, dtype), np.asarray(y, dtype),
+                                                              side="right")]
 
 
 def stairs(rise: float, tread: float, n: int = STAIRS_N, at: float = STAIRS_AT) -> Ledges:
@@ -75,13 +76,6 @@ def ledge_level(led: Ledges, y):
     """The profile's height under ``y`` (traceable)."""
     edges, _, lv = _padded(led, y.dtype)
     return lv[jnp.searchsorted(edges, y, side="right") + 1]
-
-
-def ledge_level_np(led: Ledges, y: np.ndarray) -> np.ndarray:
-    """:func:`ledge_level` in numpy, for float32 ``y``: the same bits."""
-    edges = np.asarray(led.edges, np.float32)
-    lv = np.asarray(led.levels, np.float32)
-    return lv[np.searchsorted(edges, y, side="right")]
 
 
 def riser_exit(led: Ledges, y, z, surface, scale=1.0):

@@ -86,7 +86,7 @@ class Terrain:
             h10, h11 = h[np.minimum(i00 + nx, last)], h[np.minimum(i00 + nx + 1, last)]
             z = (one - fy) * ((one - fx) * h00 + fx * h01) + fy * ((one - fx) * h10 + fx * h11)
         if self.ledges is not None:
-            z = z + _ledges.ledge_level_np(self.ledges, y)
+            z = z + self.ledges.level_np(y, np.float32)
         return z
 
 
