@@ -254,24 +254,38 @@ def foot_geoms(model, mj) -> np.ndarray:
     return leg_of
 
 
-def mujoco_observe(model, mj, datas, groups, phase, command, leg_of=None) -> np.ndarray:
+def mujoco_touch(mj, datas, leg_of) -> np.ndarray:
+    """[N, legs] the touch sensors in MuJoCo C: 1 where a leg's foot sphere has a contact at distance <= 0."""
+    c = np.zeros((len(datas), int(leg_of.max()) + 1 if (leg_of >= 0).any() else 0))
+    for n, d in enumerate(datas):
+        for i in range(d.ncon):
+            con = d.contact[i]
+            if con.dist <= 0:
+                for g in (con.geom1, con.geom2):
+                    if leg_of[g] >= 0:
+                        c[n, leg_of[g]] = 1.0
+    return c
+
+
+def mujoco_observe(model, mj, datas, groups, phase, command, leg_of=None, stance=None) -> np.ndarray:
     """[N, n] the observation of a closed-loop controller (:mod:`cpgjax.episode.sensors`) from MuJoCo's state.
 
     The same readings as ours, each from MuJoCo's own state: the hinges' ``qpos``; roll and pitch from the tracked
     body's orientation (``qpos`` of its free joint) and their rates from its angular velocity (MuJoCo's free joint
     gives it in the body's frame); a foot touches when MuJoCo has a contact of one of its spheres (its distance to
     the ground <= 0: the sphere's surface on or in the ground, where ours tests the vertex, its centre).
-    ``phase`` (sin, cos) [N] and ``command`` [N] as ours.
+    ``phase`` (sin, cos) [N] and ``command`` [N] as ours; ``stance`` [N, legs] the low-passed touch reading
+    (:func:`cpgjax.episode.sensors.stance_update`, kept by the caller), None: the touch sensors' reading.
     """
     from cpgjax.episode import sensors
 
     leg_of = foot_geoms(model, mj) if leg_of is None else leg_of
     root = root_slice(model, mj)
     parts = {g: [] for g in groups}
-    n_legs = int(leg_of.max()) + 1 if (leg_of >= 0).any() else 0
+    touch = mujoco_touch(mj, datas, leg_of) if ("contact" in groups or "stance" in groups) else None
     adr = [mj.jnt_qposadr[_joint_id(mj, model.joint_names[j])] for j in model.ctrl_joint]
     vadr = _root_dof(model, mj)
-    for d in datas:
+    for k, d in enumerate(datas):
         if "angles" in groups:
             parts["angles"].append(d.qpos[adr])
         if "tilt" in groups or "rates" in groups:
@@ -283,14 +297,9 @@ def mujoco_observe(model, mj, datas, groups, phase, command, leg_of=None) -> np.
             if "rates" in groups:
                 parts["rates"].append([wb[1], wb[0]])
         if "contact" in groups:
-            c = np.zeros(n_legs)
-            for i in range(d.ncon):
-                con = d.contact[i]
-                if con.dist <= 0:
-                    for g in (con.geom1, con.geom2):
-                        if leg_of[g] >= 0:
-                            c[leg_of[g]] = 1.0
-            parts["contact"].append(c)
+            parts["contact"].append(touch[k])
+        if "stance" in groups:
+            parts["stance"].append(touch[k] if stance is None else stance[k])
     N = len(datas)
     out = []
     for g in sensors.GROUPS:
@@ -368,6 +377,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     ``observations`` and ``steer`` are then per control period.
     """
     from cpgjax.episode import policy as pol
+    from cpgjax.episode import sensors as pol_sensors
 
     mj = mj if mj is not None else load(model, timestep=timestep)
     dt = mj.opt.timestep
@@ -390,7 +400,7 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
     qpos[:, 0] = q0
     obs_log = [] if record else None
     phase_d = np.zeros(N)
-    prev = None
+    prev = stance = None
     k = np.arange(1, K + 1)[:, None]                                # [K, 1]
     w0 = 2 * np.pi * f0
     t0 = _time.perf_counter()
@@ -405,7 +415,10 @@ def mujoco_closed_run(model, controller, *, time: float, delta: float = DEFAULT_
             ang = w0 * k * tau[None]                                    # [K, N]
             sn, cs = np.sin(ang), np.cos(ang)
             phase = (sn[0], cs[0]) if K else (np.zeros(N), np.zeros(N))
-            obs = mujoco_observe(model, mj, datas, fam.inputs, phase, cmd, leg_of)
+            if "stance" in fam.inputs:   # the touch sensors low-passed, from the first reading on
+                raw = mujoco_touch(mj, datas, leg_of)
+                stance = raw if s == 0 else pol_sensors.stance_update(model, stance, raw)
+            obs = mujoco_observe(model, mj, datas, fam.inputs, phase, cmd, leg_of, stance)
             if record:
                 obs_log.append(obs)
             used = prev if (latency and prev is not None) else obs

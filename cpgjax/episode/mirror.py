@@ -132,7 +132,7 @@ def input_map(model, family) -> tuple[np.ndarray, np.ndarray]:
             partner, sigma = joint_pairs(model)
             m += list(at + partner)
             s += list(sigma)
-        elif g == "contact":
+        elif g in ("contact", "stance"):
             m += list(at + leg_pairs(model))
             s += [1.0] * n
         else:

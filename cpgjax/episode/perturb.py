@@ -226,9 +226,9 @@ def check_controller(p: Perturbations, family) -> None:
         if family is None and getattr(p, key):
             raise ValueError(f"perturbation {key}: the open-loop CPG reads no sensor, so {what} would change "
                              "nothing; it applies to a closed-loop controller (--controller pmtg, docs/closed-loop.md)")
-    if p.touch > 0 and (family is None or "contact" not in family.inputs):
+    if p.touch > 0 and (family is None or not {"contact", "stance"} & set(family.inputs)):
         raise ValueError("perturbation touch: the controller must read its touch sensors (--controller "
-                         "pmtg:...+contact+..., e.g. pmtg:tilt+contact+bias)")
+                         "pmtg:...+contact+... or +stance+, e.g. pmtg:tilt+contact+bias)")
     if p.command > 0 and (family is None or "command" not in family.inputs):
         raise ValueError("perturbation command: the controller must read the command (--controller "
                          "pmtg:...+command+..., e.g. pmtg:tilt+contact+command+steer+bias)")

@@ -152,10 +152,10 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
     K, f0, dt = model.episode.harmonics, model.episode.frequency, model.dt
     fwd = forward
 
-    def sense(s, b, command):
+    def sense(s, b, command, stance=None):
         """The observation [in, B] of state ``s`` at the CPG's basis ``b`` (noise added)."""
         phase = (b[1], b[2]) if K else (jnp.zeros((B,), coeffs.dtype),) * 2
-        obs = sensors.observe(model, policy.family.inputs, s, var, phase, command, policy.touch)
+        obs = sensors.observe(model, policy.family.inputs, s, var, phase, command, policy.touch, stance)
         if noise:
             amp = noise * sensors.noise_scale(model, policy.family.inputs)
             # kept apart from the sum (cf. episode.perturb._one): the same bits in every program
@@ -171,7 +171,11 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
         else:   # the command computed from the state (:mod:`cpgjax.episode.steering`)
             command, smem = steer.command(model, s, cl["steer"])
             mem = {"steer": smem, "command": command}
-        obs = sense(s, b, command)
+        stance = None
+        if "stance" in policy.family.inputs:   # the touch sensors low-passed, step by step
+            stance = sensors.stance_update(model, cl["stance"], sensors.touch(model, s, var, policy.touch))
+            mem["stance"] = stance
+        obs = sense(s, b, command, stance)
         off, mf, ma = pol.act(policy.family, model, policy.weights, cl["obs"] if latency else obs)
         ctrl = pol.modulated_targets(coeffs, b, db, off, mf, ma)
         return ctrl, mf, {"d": cl["d"], "obs": obs, "target": ctrl[0], "action": (off, mf, ma)} | mem
@@ -254,6 +258,8 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
         mem0 = {"d": jnp.zeros((B,), coeffs.dtype), "obs": jnp.zeros((policy.family.n_in(model), B), coeffs.dtype)}
         if steer is not None:
             mem0["steer"] = steer.init(model, s0)
+        if "stance" in policy.family.inputs:   # from the first reading on
+            mem0["stance"] = sensors.touch(model, s0, var, policy.touch)
         _, _, cl0 = closed_ctrl(s0, mem0)
         if latency:   # the first step has no step before: it uses the initial state's observation
             _, _, cl0 = closed_ctrl(s0, cl0)

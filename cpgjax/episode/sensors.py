@@ -17,6 +17,10 @@ those sensors read, in groups (a closed-loop controller reads some or all of the
 - ``contact`` [legs]: 1 where a leg's foot touches the ground, else 0 (the touch sensors; a leg and its foot as in
   :func:`cpgjax.episode.descriptors.legs`; touching as the contact law tests it, some vertex of the foot in the
   terrain, depth > 0, or just on it, depth 0: a robot placed on the ground reads its feet down from t = 0);
+- ``stance`` [legs]: each touch sensor's reading low-passed with the time constant :data:`STANCE_TAU` (eq.
+  :func:`stance_update`), from its first reading on: a foot that bounces on landing, down and up within a few
+  milliseconds, moves it a little, where it flips ``contact`` between 0 and 1 each time (the rollout and MuJoCo C's
+  runner keep its value from step to step);
 - ``phase`` [2]: ``sin`` and ``cos`` of the CPG's phase (:mod:`cpgjax.episode.policy`);
 - ``command`` [1]: the commanded turning rate ``c``, rad/s (0 unless a task sets it: :mod:`cpgjax.episode.steering`);
 - ``steer`` [2]: ``c sin`` and ``c cos`` of the CPG's phase: with them a linear policy can change each joint's first
@@ -27,8 +31,8 @@ those sensors read, in groups (a closed-loop controller reads some or all of the
   readings that the mirror keeps, so without ``turn`` it cannot slow its gait down in a turn;
 - ``bias`` [1]: the constant 1.
 
-A family reads every group but ``steer`` and ``turn`` unless it names its groups (:data:`DEFAULT_GROUPS`, the
-groups that existed before them: the closed-loop runs and `.ctl` files made before them read as they did).
+A family reads every group but ``stance``, ``steer`` and ``turn`` unless it names its groups (:data:`DEFAULT_GROUPS`,
+the groups that existed before them: the closed-loop runs and `.ctl` files made before them read as they did).
 
 Each group has a scale (:data:`SCALES`): the size of a typical reading, by which the policy's weights are scaled
 (:mod:`cpgjax.episode.policy`) and sensor noise is sized (:func:`noise`).
@@ -48,20 +52,24 @@ from cpgjax.sim.joints import joint_angles
 from cpgjax.sim.rotation import matTvec, matvec, quat_to_mat
 
 #: The observation's groups, in the order they are stacked.
-GROUPS = ("angles", "tilt", "rates", "contact", "phase", "command", "steer", "turn", "bias")
+GROUPS = ("angles", "tilt", "rates", "contact", "stance", "phase", "command", "steer", "turn", "bias")
 #: The groups a family reads when it names none (``--controller pmtg``).
-DEFAULT_GROUPS = tuple(g for g in GROUPS if g not in ("steer", "turn"))
-#: The typical size of a group's readings (rad, rad, rad/s, 1, 1, rad/s, rad/s, rad/s, 1).
-SCALES = {"angles": 1.0, "tilt": 0.5, "rates": 2.0, "contact": 1.0, "phase": 1.0, "command": 1.0, "steer": 0.25,
-          "turn": 0.25, "bias": 1.0}
+DEFAULT_GROUPS = tuple(g for g in GROUPS if g not in ("stance", "steer", "turn"))
+#: The time constant of the ``stance`` reading's low pass, s (a trotting foot is down for 100-300 ms; a bounce
+#: lasts a few ms).
+STANCE_TAU = 0.02
+#: The typical size of a group's readings (rad, rad, rad/s, 1, 1, 1, rad/s, rad/s, rad/s, 1).
+SCALES = {"angles": 1.0, "tilt": 0.5, "rates": 2.0, "contact": 1.0, "stance": 1.0, "phase": 1.0, "command": 1.0,
+          "steer": 0.25, "turn": 0.25, "bias": 1.0}
 #: The groups that are sensors: noise is added to them, not to the CPG's phase, the command (and ``steer``) or the
 #: bias.
-SENSED = ("angles", "tilt", "rates", "contact")
+SENSED = ("angles", "tilt", "rates", "contact", "stance")
 
 
 def sizes(model) -> dict[str, int]:
     """The number of readings of each group for ``model``."""
-    return {"angles": model.n_ctrl, "tilt": 2, "rates": 2, "contact": int(legs(model)[1].shape[0]), "phase": 2,
+    return {"angles": model.n_ctrl, "tilt": 2, "rates": 2, "contact": int(legs(model)[1].shape[0]),
+            "stance": int(legs(model)[1].shape[0]), "phase": 2,
             "command": 1, "steer": 2, "turn": 1, "bias": 1}
 
 
@@ -122,11 +130,19 @@ def angles(model, s):
     return joint_angles(model, R, s.w)[0][model.ctrl_joint]
 
 
-def observe(model, groups, s, var, phase, command, touch_at=None):
+def stance_update(model, prev, touch_now):
+    """The ``stance`` reading after a step: ``prev + a (touch - prev)``, ``a = min(1, dt / STANCE_TAU)`` with ``dt``
+    the model's step (the control period); numpy or JAX arrays, [legs, ...]."""
+    a = min(1.0, float(model.dt) / STANCE_TAU)
+    return prev + a * (touch_now - prev)
+
+
+def observe(model, groups, s, var, phase, command, touch_at=None, stance=None):
     """The observation [n, B]: the readings of ``groups`` (in :data:`GROUPS` order) stacked.
 
     ``phase``: (sin, cos) [B] of the CPG's phase; ``command`` [B] the commanded turning rate; ``touch_at`` [legs, B]
-    or None: the depth from which each touch sensor reads (:func:`touch`).
+    or None: the depth from which each touch sensor reads (:func:`touch`); ``stance`` [legs, B]: the ``stance``
+    reading, kept by the caller (:func:`stance_update`); None: the touch sensors' reading, its first value.
     """
     parts = []
     tilt = rates = None
@@ -139,8 +155,10 @@ def observe(model, groups, s, var, phase, command, touch_at=None):
             if tilt is None:
                 tilt, rates = vestibular(model, s)
             parts.append(tilt if g == "tilt" else rates)
-        elif g == "contact":
+        elif g == "contact" or (g == "stance" and stance is None):
             parts.append(touch(model, s, var, touch_at))
+        elif g == "stance":
+            parts.append(stance)
         elif g == "phase":
             parts.append(jnp.stack(phase))
         elif g == "command":
