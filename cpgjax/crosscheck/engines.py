@@ -282,7 +282,8 @@ def mujoco_observe(model, mj, datas, groups, phase, command, leg_of=None, stance
     leg_of = foot_geoms(model, mj) if leg_of is None else leg_of
     root = root_slice(model, mj)
     parts = {g: [] for g in groups}
-    touch = mujoco_touch(mj, datas, leg_of) if ("contact" in groups or "stance" in groups) else None
+    read = "contact" in groups or ("stance" in groups and stance is None)
+    touch = mujoco_touch(mj, datas, leg_of) if read else None
     adr = [mj.jnt_qposadr[_joint_id(mj, model.joint_names[j])] for j in model.ctrl_joint]
     vadr = _root_dof(model, mj)
     for k, d in enumerate(datas):

@@ -48,7 +48,6 @@ def test_a_robot_standing_on_its_feet_reads_every_foot_down_no_tilt_and_its_join
                                    "command": 1, "steer": 2, "turn": 1, "bias": 1}
     np.testing.assert_array_equal(o["contact"], 1.0)
     np.testing.assert_array_equal(o["stance"], 1.0)      # no memory given: the first reading, the touch sensors'
-
     np.testing.assert_array_equal(o["tilt"], 0.0)
     np.testing.assert_array_equal(o["rates"], 0.0)
     np.testing.assert_allclose(o["angles"] - np.asarray(quad.j_q0)[quad.ctrl_joint][:, None], 0.0, atol=1e-6)
