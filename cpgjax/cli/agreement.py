@@ -80,11 +80,12 @@ def cmd_agreement(args: argparse.Namespace) -> int:
         ours = {"friction_k": float(args.friction_spring[0]), "friction_b": float(args.friction_spring[1])}
     from cpgjax.crosscheck.engines import control_period
     from cpgjax.crosscheck.impedance import contact_law
+    from cpgjax.crosscheck.limits import joint_limit
     from cpgjax.crosscheck.mjcf import contact_stiffness, friction_cone
 
     with tqdm(total=len(files) * args.per_run, desc="agreement", unit="gait", disable=args.json) as bar, \
             contact_stiffness(args.mujoco_stiffness), control_period(args.mujoco_control_dt), \
-            contact_law(args.mujoco_contact), friction_cone(args.mujoco_cone):
+            contact_law(args.mujoco_contact), friction_cone(args.mujoco_cone), joint_limit(args.mujoco_limit):
         gaits = agreement.compare_runs(files, terrain=args.terrain, mujoco_dt=args.mujoco_dt, per_run=args.per_run,
                                        pipeline=args.pipeline, time=args.time, ours=ours, replays=args.replays,
                                        progress=lambda _: bar.update())
@@ -99,6 +100,8 @@ def cmd_agreement(args: argparse.Namespace) -> int:
         summary["mujoco_control_dt"] = args.mujoco_control_dt
     if args.mujoco_cone is not None:
         summary["mujoco_cone"] = args.mujoco_cone
+    if args.mujoco_limit is not None:
+        summary["mujoco_limit"] = args.mujoco_limit
     text = agreement.table(gaits)
     if args.out:
         os.makedirs(args.out, exist_ok=True)

@@ -12,6 +12,7 @@ from typing import Any
 from cpgjax.cli import options as o
 from cpgjax.crosscheck.ground import GROUND_FORMS, ground_form
 from cpgjax.crosscheck.impedance import CONTACT_LAWS, contact_law
+from cpgjax.crosscheck.limits import LIMITS, joint_limit
 from cpgjax.crosscheck.mjcf import CONES, cone_note, contact_stiffness, friction_cone
 from cpgjax.episode.cpg import GENE_BOX
 
@@ -121,15 +122,19 @@ def mujoco_contact_option(p: argparse.ArgumentParser) -> None:
                    help="MuJoCo C's friction cone: pyramidal (default, MuJoCo's own) or elliptic (the circular cone "
                         "|f_t| <= mu f_r that ours is; the pyramidal one makes MuJoCo's ground softer as mu grows: "
                         "docs/crosscheck.md)")
+    p.add_argument("--mujoco-limit", choices=LIMITS, default=None,
+                   help="MuJoCo C's joint limits: penalty (default: soft constraints that act as our penalty torque "
+                        "beyond the stop) or mujoco (MuJoCo's default limit, far softer: knees buckle past it; "
+                        "docs/crosscheck.md, joint limits)")
 
 
 @contextlib.contextmanager
 def mujoco_ground(args: argparse.Namespace):
     """Within this block MuJoCo C's ground has the form, the contact law, the friction cone and the contact stiffness
-    ``args`` ask for (the options each command has)."""
+    ``args`` ask for, and its joints the limit (the options each command has)."""
     g = lambda name: getattr(args, name, None)      # noqa: E731
     with ground_form(g("mujoco_ground")), contact_law(g("mujoco_contact")), friction_cone(g("mujoco_cone")), \
-            contact_stiffness(g("mujoco_stiffness")):
+            contact_stiffness(g("mujoco_stiffness")), joint_limit(g("mujoco_limit")):
         yield
 
 
@@ -317,6 +322,9 @@ def cmd_transfer(args: argparse.Namespace) -> int:
     if args.mujoco_cone is not None:
         here.append(f"MuJoCo's friction cone {args.mujoco_cone}")
         summary["mujoco_cone"] = args.mujoco_cone
+    if args.mujoco_limit is not None:
+        here.append(f"MuJoCo's joint limits {args.mujoco_limit}")
+        summary["mujoco_limit"] = args.mujoco_limit
     if args.joint_spring is not None:
         here.append(f"pivot springs {args.joint_spring[0]:g} N/m, {args.joint_spring[1]:g} N s/m")
         summary["joint_spring"] = list(args.joint_spring)

@@ -348,7 +348,7 @@ def cmd_follow(args: argparse.Namespace) -> int:
         raise ValueError(f"{', '.join(ctl_only)}: with --ctl only (a repertoire's gaits run for whole cycles, on its "
                          "pipeline)")
     mj_only = [f"--{n.replace('_', '-')}" for n in ("engine", "mujoco_dt", "mujoco_ground", "mujoco_contact",
-                                                    "mujoco_cone") if getattr(args, n) is not None]
+                                                    "mujoco_cone", "mujoco_limit") if getattr(args, n) is not None]
     if mj_only:
         raise ValueError(f"{', '.join(mj_only)}: with --ctl only (a repertoire's walk is its look-ahead's "
                          "simulation, in our simulator)")
@@ -377,7 +377,7 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         if getattr(args, n) is not None:
             raise ValueError(f"--{n.replace('_', '-')}: with --repertoire only")
     engine = args.engine or "ours"
-    for n in ("mujoco_dt", "mujoco_ground", "mujoco_contact", "mujoco_cone"):
+    for n in ("mujoco_dt", "mujoco_ground", "mujoco_contact", "mujoco_cone", "mujoco_limit"):
         if getattr(args, n) is not None and engine == "ours":
             raise ValueError(f"--{n.replace('_', '-')}: with --engine mujoco or both (MuJoCo C's)")
     if args.video and engine == "mujoco":

@@ -13,6 +13,8 @@ Per gait and engine, from the same samples (every ``sample`` s, MuJoCo's states 
   the terrain's normal under the vertex; MuJoCo: its contact frame's);
 - ``slip``: the touching feet's mean speed along the ground [mm/s] between two samples at which they touch;
 - ``landings``: how often a foot lands, per leg and second (a foot that bounces lands more often than it steps);
+- ``past``: how far a joint went past its limit, the largest over joints and samples [rad] (ours: a penalty
+  torque pushes it back; MuJoCo: its soft limit constraint, :mod:`cpgjax.crosscheck.limits`);
 - ``lost``: for a gait that falls, the leg whose last touch before the fall's onset (tilt past 60 degrees) came
   first: the first leg to lose the ground.
 
@@ -33,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cpgjax.crosscheck.engines import foot_geoms, mujoco_closed_run, root_slice
+from cpgjax.crosscheck.engines import foot_geoms, joint_angles, mujoco_closed_run, root_slice
 from cpgjax.crosscheck.mjcf import load
 from cpgjax.crosscheck.ranks import spearman
 from cpgjax.episode.descriptors import legs
@@ -47,13 +49,14 @@ SAMPLE = 0.002               # s: the feet are watched at this interval in both 
 @dataclass
 class Watch:
     """One gait's feet in one engine, sampled: positions [S, L, 3], touching [S, L], depth [S, L] (m), the contact
-    normal's z [S, L], the body's up z [S]."""
+    normal's z [S, L], the body's up z [S], the joints' angles [S, nj]."""
 
     feet: np.ndarray
     touch: np.ndarray
     depth: np.ndarray
     nz: np.ndarray
     up: np.ndarray
+    angle: np.ndarray | None = None
 
 
 @dataclass
@@ -81,8 +84,9 @@ def pick_gaits(run, per_run: int) -> list[tuple[int, np.ndarray]]:
     return out
 
 
-def diagnose(w: Watch, leg_names, sample: float) -> dict:
-    """The per-engine figures of the module docstring from one :class:`Watch`."""
+def diagnose(w: Watch, leg_names, sample: float, limits=None) -> dict:
+    """The per-engine figures of the module docstring from one :class:`Watch`; ``limits``: the joints' (lo, hi)
+    (None: ``past`` is 0)."""
     t = w.touch
     d = w.depth[t] * 1e3
     steep = float(np.mean(w.nz[t] < math.cos(STEEP))) if t.any() else 0.0
@@ -96,7 +100,11 @@ def diagnose(w: Watch, leg_names, sample: float) -> dict:
         k = int(onset[0])
         last = [int(np.nonzero(t[:k, j])[0][-1]) if t[:k, j].any() else -1 for j in range(t.shape[1])]
         lost = leg_names[int(np.argmin(last))]
-    return {"depth": tuple(float(x) for x in (np.percentile(d, [50, 99]).tolist() + [d.max()])) if d.size
+    past = 0.0
+    if limits is not None and w.angle is not None:
+        lo, hi = (np.asarray(x, float) for x in limits)
+        past = float(np.maximum(w.angle - hi, lo - w.angle).max(initial=0.0))
+    return {"past": past, "depth": tuple(float(x) for x in (np.percentile(d, [50, 99]).tolist() + [d.max()])) if d.size
             else (0.0, 0.0, 0.0), "steep": steep, "slip": slip, "landings": landings, "lost": lost}
 
 
@@ -127,7 +135,8 @@ def watch_ours(model, controller, time: float, sample: float = SAMPLE) -> tuple[
     watches = []
     for b in range(p.shape[-1]):
         watches.append(Watch(feet=np.moveaxis(p[:, :, k, b], 1, 2), touch=depth[:, k, b] > 0,
-                             depth=np.maximum(depth[:, k, b], 0.0), nz=nz[:, k, b], up=Rt[2, 2, :, b]))
+                             depth=np.maximum(depth[:, k, b], 0.0), nz=nz[:, k, b], up=Rt[2, 2, :, b],
+                             angle=out["traj"]["angle"][:, :, b]))
     return {"speed": out["speed"], "fallen": out["fallen"]}, watches
 
 
@@ -139,6 +148,7 @@ def watch_mujoco(model, controller, time: float, timestep: float, sample: float 
     geoms = [int(np.nonzero(leg_of == j)[0][0]) for j in range(L)]
     every = max(1, int(round(sample / mj.opt.timestep)))
     root = root_slice(model, mj)
+    hinge = joint_angles(model, mj, np.arange(mj.nq))          # the joints' qpos addresses, in the `.wl` order
     rows: list[list] = []
 
     def watch(step, datas):
@@ -156,7 +166,7 @@ def watch_mujoco(model, controller, time: float, timestep: float, sample: float 
                     if j >= 0 and -con.dist >= depth[j]:
                         touch[j], depth[j], nz[j] = True, -con.dist, abs(con.frame[2])
             R = quat_to_mat_np(d.qpos[root][3:])
-            row.append((d.geom_xpos[geoms].copy(), touch, depth, nz, R[2, 2]))
+            row.append((d.geom_xpos[geoms].copy(), touch, depth, nz, R[2, 2], d.qpos[hinge].copy()))
         rows.append(row)
 
     metrics, _, _ = mujoco_closed_run(model, controller, time=time, timestep=timestep, mj=mj, watch=watch)
@@ -165,7 +175,7 @@ def watch_mujoco(model, controller, time: float, timestep: float, sample: float 
         col = [r[b] for r in rows]
         watches.append(Watch(feet=np.stack([c[0] for c in col]), touch=np.stack([c[1] for c in col]),
                              depth=np.stack([c[2] for c in col]), nz=np.stack([c[3] for c in col]),
-                             up=np.asarray([c[4] for c in col])))
+                             up=np.asarray([c[4] for c in col]), angle=np.stack([c[5] for c in col])))
     return metrics, watches
 
 
@@ -205,15 +215,15 @@ def compare_runs(paths, *, terrain: str, mujoco_dt: float, per_run: int = 6, pip
         picked = pick_gaits(run, per_run)
         family = family_from_meta(run.meta)
         C = from_genomes(family, model, np.stack([g for _, g in picked]))
-        names = legs(model)[0]
+        names, limits = legs(model)[0], (model.j_lo, model.j_hi)
         here, w_ours = watch_ours(model.replace(**changes) if changes else model, C, T)
         mj, w_mj = watch_mujoco(model, as_closed(model, family, C), T, mujoco_dt)
         for i, (gen, _) in enumerate(picked):
             g = Gait(f"{os.path.basename(path)}@{gen + 1}")
             g.ours = {"fell": bool(here["fallen"][i]), "speed": float(here["speed"][i])} | diagnose(
-                w_ours[i], names, SAMPLE)
+                w_ours[i], names, SAMPLE, limits)
             g.mujoco = {"fell": bool(mj["fallen"][i]), "speed": float(mj["speed"][i])} | diagnose(
-                w_mj[i], names, SAMPLE)
+                w_mj[i], names, SAMPLE, limits)
             if replays:
                 g.ours["replays"] = g.mujoco["replays"] = replays
                 (g.ours["falls"], g.ours["speed_median"]), (g.mujoco["falls"], g.mujoco["speed_median"]) = \
@@ -270,7 +280,8 @@ def _cells(e: dict) -> list[str]:
     falls_ = [f"{e['falls']}", f"{e['speed_median']:.3f}"] if e.get("replays") and "speed_median" in e else (
         [f"{e['falls']}"] if e.get("replays") else [])
     return [f"{e['speed']:.3f}{' (fell)' if e['fell'] else ''}", *falls_, f"{d[0]:.1f} / {d[1]:.1f} / {d[2]:.1f}",
-            f"{100 * e['steep']:.0f} %", f"{e['slip']:.0f}", f"{e['landings']:.1f}", e["lost"]]
+            f"{100 * e['steep']:.0f} %", f"{e['slip']:.0f}", f"{e['landings']:.1f}", f"{e.get('past', 0.0):.2f}",
+            e["lost"]]
 
 
 def table(gaits: list[Gait]) -> str:
@@ -279,7 +290,7 @@ def table(gaits: list[Gait]) -> str:
     med = bool(n) and all("speed_median" in g.ours for g in gaits)
     cols = ["speed [m/s]", *([f"falls of {n}"] if n else []), *([f"median speed of {n} [m/s]"] if med else []),
             "feet's depth, median / 99 % / max [mm]",
-            "steep", "slip [mm/s]", "landings per leg [1/s]", "first leg lost"]
+            "steep", "slip [mm/s]", "landings per leg [1/s]", "past a joint limit [rad]", "first leg lost"]
     head = ["gait"] + [f"{c} here" for c in cols] + [f"{c} in MuJoCo C" for c in cols]
     align = ["---"] + [("---" if c.startswith(("feet", "first")) else "---:") for c in cols] * 2
     rows = ["| " + " | ".join([g.label, *_cells(g.ours), *_cells(g.mujoco)]) + " |" for g in gaits]

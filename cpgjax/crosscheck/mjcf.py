@@ -5,8 +5,8 @@ How the penalty model maps onto MuJoCo's:
 - bodies: the kinematic tree of the joints (MuJoCo needs one); root bodies get a free
   joint (or none when ``Fixed``); each body's frame is the `.wl` frame, its ``inertial``
   the same mass, CM and full inertia tensor;
-- joints: hinges at the second body's pivot, about the joint axis, with the same limits
-  (MuJoCo enforces them as constraints, we as stiff penalty torques);
+- joints: hinges at the second body's pivot, about the joint axis, with the same limits, which MuJoCo
+  enforces as soft constraints tuned to act as our penalty torques (:mod:`cpgjax.crosscheck.limits`);
 - servo: a ``position`` actuator per controlled joint with the same kp, kv = kd and force
   range +-tau_max.  MuJoCo's is ``kp (u - q) - kv qdot``; ours has ``kd (q*' - qdot)``: feeding
   ``u = q* + (kd/kp) q*'`` makes them equal below saturation (see ``servo_ctrl``);
@@ -37,6 +37,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from cpgjax.crosscheck.ground import add_ground, check_form, course_ground, current_form, hfield_geom, ledge_boxes
+from cpgjax.crosscheck.limits import set_limits
 from cpgjax.crosscheck.scoped import scoped
 from cpgjax.sim.course import rough_spans
 from cpgjax.sim.rotation import euler_to_mat, mat_to_quat
@@ -212,6 +213,7 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CON
         add_ground(asset, world, model, form, hfield_grid(t, hfield_sub), radius=r, attrs=attrs)
 
     children = {int(b): j for j, b in enumerate(model.j_b)}
+    joints: dict[str, ET.Element] = {}
     kids: dict[int, list[int]] = {}
     for j, a in enumerate(model.j_a):
         kids.setdefault(int(a), []).append(j)
@@ -232,7 +234,7 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CON
                      "axis": _f(model.j_axis[:, j])}
             if np.isfinite(lo) and np.isfinite(hi):
                 attrs["range"] = f"{lo:g} {hi:g}"
-            ET.SubElement(el, "joint", **attrs)
+            joints[model.joint_names[j]] = ET.SubElement(el, "joint", **attrs)
         else:
             p, R = frame_pose(i)
             el = ET.SubElement(parent, "body", name=name, pos=_f(p), quat=_f(mat_to_quat(R)))
@@ -258,6 +260,7 @@ def to_mjcf(model, *, timestep: float = MJ_TIMESTEP, contact_radius: float = CON
         ET.SubElement(act, "position", name=f"servo{c}", joint=model.joint_names[j], kp=f"{model.j_kp[j]:g}",
                       kv=f"{model.j_kd[j]:g}", forcerange=f"{-model.j_taumax[j]:g} {model.j_taumax[j]:g}",
                       ctrlrange="-10 10")
+    set_limits(root, joints, float(model.limit_k), float(model.limit_c), timestep)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode")
 

@@ -48,6 +48,17 @@ def test_the_first_leg_to_lose_the_ground_is_the_one_whose_last_touch_before_the
     assert ag.diagnose(_watch(S), LEGS, ag.SAMPLE)["lost"] == "—"      # no fall
 
 
+def test_past_a_limit_is_the_largest_overshoot_over_joints_and_samples():
+    w = _watch()
+    w.angle = np.zeros((len(w.up), 2))
+    w.angle[10, 0], w.angle[20, 1] = 1.6, -1.7
+    limits = (np.array([-1.5, -1.5]), np.array([1.5, 1.5]))
+    assert ag.diagnose(w, LEGS, ag.SAMPLE, limits)["past"] == pytest.approx(0.2)
+    assert ag.diagnose(w, LEGS, ag.SAMPLE)["past"] == 0.0                                   # no limits given
+    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    assert ag.diagnose(w, LEGS, ag.SAMPLE, free)["past"] == 0.0                             # joints without limits
+
+
 def test_a_robot_at_rest_stands_on_its_four_feet_in_both_engines():
     """The quadruped holding its design pose on flat ground for 1 s.  Here each foot carries a quarter of the
     robot: depth m g / (4 A) (eq. 3.7; sim/contact.py makes it exact at rest), the normal vertical, no slip.  In
@@ -70,6 +81,9 @@ def test_a_robot_at_rest_stands_on_its_four_feet_in_both_engines():
     assert ag.diagnose(ag.Watch(*(a[tail] for a in (there.feet, there.touch, there.depth, there.nz, there.up))),
                        LEGS, ag.SAMPLE)["slip"] < 0.5
     assert (here.nz[tail] == 1.0).all() and (there.nz[tail] > 0.999).all()
+    limits = (model.j_lo, model.j_hi)
+    assert ag.diagnose(here, LEGS, ag.SAMPLE, limits)["past"] == 0.0
+    assert ag.diagnose(there, LEGS, ag.SAMPLE, limits)["past"] == 0.0
 
 
 def test_mujoco_stiffness_scales_the_exported_contact_and_sinks_the_resting_feet_less():
@@ -137,7 +151,7 @@ def test_agreement_writes_its_table_and_summary(tiny_runs, tmp_path, capsys):
     assert data["summary"]["terrain"] == "rough:0.02:0.1:1" and 1 <= data["summary"]["gaits"] <= 2
     for g in data["gaits"]:
         for side in ("ours", "mujoco"):
-            assert set(g[side]) == {"fell", "speed", "depth", "steep", "slip", "landings", "lost"}
+            assert set(g[side]) == {"fell", "speed", "depth", "steep", "slip", "landings", "past", "lost"}
 
 
 def test_a_controller_file_is_refused_in_one_line(capsys):
