@@ -28,6 +28,9 @@ def register(subparsers: Any) -> None:
     e.add_argument("--cone", choices=CONES, default="pyramidal",
                    help="MuJoCo's friction cone: pyramidal (default, MuJoCo's own) or elliptic (circular as ours, "
                         "needed above friction 3, where the pyramidal lets the ground give way; docs/crosscheck.md)")
+    e.add_argument("--limit", choices=LIMITS, default="penalty",
+                   help="the joint limits: penalty (default: act as ours, their damping capped for the file's 2 ms "
+                        "step) or mujoco (MuJoCo's default limit); docs/crosscheck.md, joint limits")
     e.set_defaults(func=cmd_export)
 
     c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
@@ -185,8 +188,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     note = cone_note(model.mu_static, args.cone, flag="--cone")
     if note:
         print(note, file=sys.stderr)
-    text = to_mjcf(model, ground=args.ground, cone=args.cone)
-    mj = load(model, ground=args.ground, cone=args.cone)  # proves that MuJoCo loads it (before anything is written)
+    with joint_limit(args.limit):
+        text = to_mjcf(model, ground=args.ground, cone=args.cone)
+        mj = load(model, ground=args.ground, cone=args.cone)  # proves that MuJoCo loads it (before anything is written)
     with open(out, "w") as f:
         f.write(text)
     print(f"wrote {out}: {mj.nbody - 1} bodies, {mj.njnt} joints, {mj.nu} actuators, "

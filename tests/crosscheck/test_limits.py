@@ -69,3 +69,12 @@ def test_the_limit_form_is_a_scoped_setting_and_a_wrong_one_is_named():
     assert current_limit() == "penalty"
     with pytest.raises(ValueError, match="MuJoCo's joint limit must be one of penalty, mujoco, got 'hard'"):
         check_limit("hard")
+
+
+def test_export_writes_the_penalty_limit_unless_asked_for_mujocos(tmp_path):
+    from cpgjax import cli
+
+    assert cli.main(["export", "models/quadruped.wl", "--out", str(tmp_path / "p.xml")]) == 0
+    assert cli.main(["export", "models/quadruped.wl", "--limit", "mujoco", "--out", str(tmp_path / "m.xml")]) == 0
+    assert (tmp_path / "p.xml").read_text().count("solreflimit") == 8
+    assert "solreflimit" not in (tmp_path / "m.xml").read_text()
