@@ -58,6 +58,19 @@ def limit_solref(k: float, c: float, invweight: float, timestep: float) -> tuple
     return -k * invweight, -min(c * invweight, DAMPING_STEP / timestep)
 
 
+def _bodies_only(root: ET.Element) -> ET.Element:
+    """``root`` without its ground (the world's geoms and the assets they use), which ``dof_invweight0`` does not
+    depend on: a mesh ground takes MuJoCo seconds to compile."""
+    slim = ET.Element(root.tag, root.attrib)
+    for child in root:
+        if child.tag == "worldbody":
+            world = ET.SubElement(slim, "worldbody", child.attrib)
+            world.extend(c for c in child if c.tag != "geom")
+        elif child.tag != "asset":
+            slim.append(child)
+    return slim
+
+
 def set_limits(root: ET.Element, joints: dict[str, ET.Element], k: float, c: float, timestep: float) -> None:
     """Give each limited hinge in ``joints`` (name -> its ``joint`` element in ``root``) the penalty limit
     ``k``, ``c``: the tree compiled once by MuJoCo for its ``dof_invweight0``."""
@@ -66,7 +79,7 @@ def set_limits(root: ET.Element, joints: dict[str, ET.Element], k: float, c: flo
     limited = {n: el for n, el in joints.items() if "range" in el.attrib}
     if not limited or current_limit() == "mujoco":
         return
-    mj = mujoco.MjModel.from_xml_string(ET.tostring(root, encoding="unicode"))
+    mj = mujoco.MjModel.from_xml_string(ET.tostring(_bodies_only(root), encoding="unicode"))
     for name, el in limited.items():
         jid = mujoco.mj_name2id(mj, mujoco.mjtObj.mjOBJ_JOINT, name)
         w = float(mj.dof_invweight0[mj.jnt_dofadr[jid]])
