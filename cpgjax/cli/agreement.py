@@ -51,8 +51,8 @@ def register(subparsers: Any) -> None:
                    help="the closed-loop controller's period in MuJoCo C (default: the model's step, 0.002 for "
                         "models/quadruped.wl, as here; MuJoCo's step reads and acts every step); MuJoCo's side only")
     a.add_argument("--out", default=None, metavar="DIR",
-                   help="write agreement.md, agreement.json and agreement.png (speed, slip and landings "
-                        "here against MuJoCo C, one point per gait) here")
+                   help="write agreement.md, agreement.json and agreement.png (speed, slip, landings and how far "
+                        "past a joint limit, here against MuJoCo C, one point per gait) here")
     a.add_argument("--json", action="store_true", help="print one JSON object with the summary instead of the table")
     a.set_defaults(func=cmd_agreement)
 

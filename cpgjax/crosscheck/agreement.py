@@ -308,20 +308,20 @@ def table(gaits: list[Gait]) -> str:
 
 
 def plot(gaits: list[Gait], out: str) -> None:
-    """Three panels, one point per gait, here (x) against MuJoCo C (y): speed, the feet's slip, their landings per
-    second; hollow where the engines' fall verdicts differ."""
+    """Four panels, one point per gait, here (x) against MuJoCo C (y): speed, the feet's slip, their landings per
+    second, how far past a joint limit; hollow where the engines' fall verdicts differ."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(12, 4), layout="constrained")
+    fig = Figure(figsize=(16, 4), layout="constrained")
     FigureCanvasAgg(fig)
     differ = [falls(g.ours) != falls(g.mujoco) for g in gaits]
     panels = (("speed", "speed [m/s]"), ("slip", "touching feet's slip [mm/s]"),
-              ("landings", "landings per leg and second"))
+              ("landings", "landings per leg and second"), ("past", "farthest past a joint limit [rad]"))
     for k, (key, name) in enumerate(panels):
-        ax = fig.add_subplot(1, 3, k + 1)
-        x = np.array([g.ours[key] for g in gaits])
-        y = np.array([g.mujoco[key] for g in gaits])
+        ax = fig.add_subplot(1, len(panels), k + 1)
+        x = np.array([g.ours.get(key, 0.0) for g in gaits])
+        y = np.array([g.mujoco.get(key, 0.0) for g in gaits])
         hi = max(float(np.max(x, initial=0)), float(np.max(y, initial=0)), 1e-3) * 1.1
         lo = min(float(np.min(x, initial=0)), float(np.min(y, initial=0)), 0.0)
         ax.plot([lo, hi], [lo, hi], "k:", lw=1, label="same in both")
