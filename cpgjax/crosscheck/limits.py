@@ -3,8 +3,9 @@
 Ours (``sim/joints.py``, ``sim/exact/step.py``) push a joint back past its limit with the torque
 ``-k r - c qdot``, ``k`` = ``Model.limit_k`` (300 N m/rad) and ``c`` = ``Model.limit_c`` (3 N m s/rad), ``r`` how
 far past it is.  MuJoCo enforces a limit as a soft constraint, and its defaults (``solreflimit`` 0.02 s, damping
-ratio 1) are far softer: a knee its servo drives 0.14 rad past the stop rests 0.02 rad past it here and 0.09 rad
-in MuJoCo, and fast evolved gaits buckle MuJoCo's knees 0.3-0.7 rad past it (docs/crosscheck.md, *Joint limits*).
+ratio 1) are far softer: a saturated servo holds a rig's arm 0.058 rad past its stop here and 0.111 rad in MuJoCo
+(``tests/crosscheck/test_limits.py``), and evolved gaits' joints went up to 0.52 rad past it in MuJoCo on 2 cm
+fields where ours went 0.09 (docs/results/joint-limits.md).
 
 MuJoCo's constraint solves ``(A + R) f = a_ref - a0`` for the limit's force ``f``, with ``R = (1 - d)/d W``,
 ``W`` the joint's ``dof_invweight0``, and in the direct form (``solref = -s0 -s1``, ``solimp = d d ...``)
