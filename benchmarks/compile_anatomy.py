@@ -77,10 +77,19 @@ def sources(hlo: str, root: str = "") -> dict[str, str]:
 def anatomy(lowered, dump_dir: str, root: str = "") -> dict:
     """Compile ``lowered`` (a ``jax.jit(...).lower(...)``) once timed and once dumped into ``dump_dir``; return the
     compile's seconds and its kernels: ``[(name, kind, IR bytes, source)]``, the largest first."""
-    t0 = time.perf_counter()
-    lowered.compile()
-    seconds = time.perf_counter() - t0
-    lowered.compile(compiler_options={"xla_dump_to": dump_dir, "xla_dump_hlo_as_text": True})
+    import jax
+
+    # JAX's persistent cache keys a program without its dump options: the first compile is not written to it, so
+    # that the second one compiles (and dumps) too
+    keep = jax.config.jax_persistent_cache_min_compile_time_secs
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 1e9)
+    try:
+        t0 = time.perf_counter()
+        lowered.compile()
+        seconds = time.perf_counter() - t0
+        lowered.compile(compiler_options={"xla_dump_to": dump_dir, "xla_dump_hlo_as_text": True})
+    finally:
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", keep)
     after = sorted(glob.glob(os.path.join(dump_dir, "*.cpu_after_optimizations.txt")), key=os.path.getmtime)
     if not after:
         raise RuntimeError(f"XLA compiled nothing into {dump_dir}: the program came from JAX's persistent "
