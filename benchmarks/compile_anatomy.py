@@ -126,20 +126,12 @@ def table(result: dict, top: int = 12) -> list[str]:
 
 
 def episode_program(model_path: str, pipeline: str | None, batch: int, time_s: float):
-    """`cpgjax bench`'s program: one episode of ``batch`` sinusoids jittered in the search box, lowered."""
-    import jax
-    import jax.numpy as jnp
-    import numpy as np
-
-    from cpgjax.episode.batch import evaluate
-    from cpgjax.episode.cpg import GENE_BOX, sinusoid_genome
+    """`cpgjax bench`'s program (:func:`cpgjax.experiments.bench.episode_program`) for the model file, lowered."""
+    from cpgjax.experiments.bench import episode_program as bench_program
     from cpgjax.io.wl import load_model
 
-    model = load_model(model_path, pipeline=pipeline)
-    base = sinusoid_genome(model.n_ctrl, model.episode.harmonics).reshape(model.n_ctrl, model.n_coeff)
-    rng = np.random.default_rng(0)
-    c = np.clip(base[None] + rng.uniform(-0.3, 0.3, (batch, *base.shape)), -GENE_BOX, GENE_BOX)
-    return jax.jit(lambda x: evaluate(model, x, time=time_s)).lower(jnp.asarray(c, jnp.float32))
+    f, coeffs = bench_program(load_model(model_path, pipeline=pipeline), batch, time_s)
+    return f.lower(coeffs)
 
 
 def main(argv=None) -> int:

@@ -36,14 +36,20 @@ def _controllers(model, n, seed=0):
     return np.clip(base[None] + rng.uniform(-0.3, 0.3, (n, model.n_ctrl, model.n_coeff)), -GENE_BOX, GENE_BOX)
 
 
-def measure(model, batch: int, time_s: float, *, chunk: int = 256, devices=None, repeats: int = 1):
-    """(compile_s, run_s) of one episode of ``time_s`` for ``batch`` robots (fresh compile)."""
+def episode_program(model, batch: int, time_s: float, *, chunk: int = 256, devices=None):
+    """The program the bench times, and its argument: one episode of ``time_s`` for ``batch`` jittered sinusoids
+    (``jax.jit`` of ``evaluate``, not yet compiled; ``benchmarks/compile_anatomy.py`` dissects its compile)."""
     import jax
 
     from cpgjax.episode.batch import evaluate
 
     coeffs = jax.numpy.asarray(_controllers(model, batch), jax.numpy.float32)
-    f = jax.jit(lambda c: evaluate(model, c, time=time_s, chunk=chunk, devices=devices))
+    return jax.jit(lambda c: evaluate(model, c, time=time_s, chunk=chunk, devices=devices)), coeffs
+
+
+def measure(model, batch: int, time_s: float, *, chunk: int = 256, devices=None, repeats: int = 1):
+    """(compile_s, run_s) of one episode of ``time_s`` for ``batch`` robots (fresh compile)."""
+    f, coeffs = episode_program(model, batch, time_s, chunk=chunk, devices=devices)
     return _compile_and_run(f, coeffs, repeats)
 
 

@@ -41,3 +41,14 @@ def test_bad_arguments_exit_2(capsys):
             bench.main(argv)
         assert e.value.code == 2
     assert "no/such.wl: no such model file" in capsys.readouterr().err
+
+
+def test_the_program_dissected_is_the_benchs():
+    """`main`'s program is `cpgjax bench`'s: the same lowered episode for the same robots (not compiled)."""
+    from cpgjax.experiments.bench import episode_program
+    from cpgjax.io.wl import load_model
+
+    bench = load_benchmark("compile_anatomy")
+    ours = bench.episode_program("models/worm.wl", None, 3, 0.3)
+    f, coeffs = episode_program(load_model("models/worm.wl"), 3, 0.3)
+    assert coeffs.shape[0] == 3 and ours.as_text() == f.lower(coeffs).as_text()
