@@ -17,7 +17,8 @@ RTOL, ATOL = 0.03, 0.005
 # +2.50 m): then that, not RTOL, applies.
 CLAIM = re.compile(r"(?P<verb>[a-z]+) (?P<dist>[-+]\d+\.\d\d)(?: ±(?P<tol>\d+\.\d+))? m(?P<what>[^,]*), "
                    r"(?P<fall>stays up|falls)$")
-SIMULATE_TAKES = ("--ctl", "--time", "--terrain", "--pipeline", "--dt", "--gravity", "--delta")
+SIMULATE_TAKES = ("--ctl", "--time", "--terrain", "--pipeline", "--dt", "--gravity", "--delta", "--engine",
+                  "--mujoco-dt")
 
 
 def replay(argv: list[str], capsys) -> tuple[float, bool]:

@@ -25,6 +25,15 @@ def register(subparsers: Any) -> None:
     s.add_argument("--gravity", type=o.finite, help="the acceleration of gravity pulling every body down, m/s^2 "
                                                     "(default: the model file's Gravity, else 9.81)")
     o.delta_option(s)
+    s.add_argument("--engine", choices=("ours", "mujoco"), default="ours",
+                   help="run the episode in our simulator (default) or in MuJoCo C (the robot: the model exported, "
+                        "a closed-loop controller reading MuJoCo's sensors every control period, the model's step)")
+    s.add_argument("--mujoco-dt", type=o.step, default=None, metavar="SECONDS",
+                   help="--engine mujoco: MuJoCo C's integration step (default: the export's, 2 ms; on rough "
+                        "ground use 0.00025, as for transfer: docs/crosscheck.md)")
+    from cpgjax.cli.crosscheck import mujoco_ground_option
+
+    mujoco_ground_option(s)
     s.set_defaults(func=cmd_simulate)
 
     r = subparsers.add_parser("robustness",
@@ -81,6 +90,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     T = model.episode.time_max if rp.time is None else rp.time
     if rp.note:
         print(f"header    {rp.note}")
+    if args.engine == "mujoco":
+        return _simulate_mujoco(args, model, coeffs, ctl_name, T)
+    mj_only = [f"--{n.replace('_', '-')}" for n in ("mujoco_dt", "mujoco_ground", "mujoco_contact", "mujoco_cone",
+                                                    "mujoco_limit") if getattr(args, n) is not None]
+    if mj_only:
+        raise ValueError(f"{', '.join(mj_only)}: with --engine mujoco (MuJoCo C's)")
     r = simulate(model, coeffs, time=T, delta=args.delta, record=bool(args.log))
     body = model.body_names[model.track]
     print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, {model.pipeline} pipeline, "
@@ -109,6 +124,39 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                       pose_rows(r["traj"], i))
             print(f"log       {path}")
     return 1 if r["diverged"] else 0
+
+
+def _simulate_mujoco(args: argparse.Namespace, model, coeffs, ctl_name: str, T: float) -> int:
+    """``simulate --engine mujoco``: the same episode in MuJoCo C, printed as ours is."""
+    import sys
+
+    from cpgjax.cli.crosscheck import mujoco_ground, rough_step_note
+    from cpgjax.crosscheck.engines import mujoco_run
+    from cpgjax.crosscheck.mjcf import cone_note, load
+    from cpgjax.episode.policy import stack
+
+    for flag, given in (("--log", args.log), ("--gravity", args.gravity)):
+        if given is not None:
+            raise ValueError(f"{flag}: with --engine ours only (MuJoCo C's model is the export's)")
+    for note in (rough_step_note([model.terrain.spec], args.mujoco_dt),
+                 cone_note(model.mu_static, args.mujoco_cone or "pyramidal")):
+        if note:
+            print(note, file=sys.stderr)
+    with mujoco_ground(args):
+        mj = load(model) if args.mujoco_dt is None else load(model, timestep=args.mujoco_dt)
+        r, _, _ = mujoco_run(model, stack([coeffs], model), time=T, delta=args.delta, mj=mj)
+    body = model.body_names[model.track]
+    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, MuJoCo C, "
+          f"step {mj.opt.timestep:g} s, controller every {model.dt:g} s, terrain {model.terrain.spec})")
+    print(f"control   {ctl_name}")
+    print(f"time      {T:g} s")
+    print(f"distance  {float(r['distance'][0]):+.4f} m   (body {body}, forward = +y)")
+    print(f"speed     {float(r['speed'][0]):+.4f} m/s")
+    print(f"tilt      {np.degrees(float(r['tilt'][0])):.2f} deg (mean angle of the body normal from vertical)")
+    print(f"fitness   {float(r['fitness'][0]):+.6f}   (eq. 4.6, delta {args.delta:g})")
+    print(f"fallen    {'yes' if r['fallen'][0] else 'no'}")
+    print(f"diverged  {'yes' if r['diverged'][0] else 'no'}")
+    return 1 if r["diverged"][0] else 0
 
 
 def cmd_robustness(args: argparse.Namespace) -> int:
