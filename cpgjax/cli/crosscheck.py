@@ -203,7 +203,7 @@ def cmd_crosscheck(args: argparse.Namespace) -> int:
     from cpgjax.io.wl import load_model
 
     o.check_output_dir(args.out)
-    from cpgjax.cli.simulate import header_settings
+    from cpgjax.cli.controllers import header_settings
     from cpgjax.crosscheck.transfer import variant
 
     rp = header_settings([*(args.ctl or ()), *([args.perturb_ctl] if args.perturb_ctl else [])], args)

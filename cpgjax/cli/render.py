@@ -91,7 +91,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         T = args.time or T
         title = f"{os.path.basename(args.model)}: {what}"
     else:
-        from cpgjax.cli.simulate import header_settings, load_controller
+        from cpgjax.cli.controllers import header_settings, load_controller
         from cpgjax.io.wl import load_model
 
         if args.generation is not None or args.cell is not None:

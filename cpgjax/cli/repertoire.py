@@ -382,7 +382,7 @@ def _follow_ctl(args: argparse.Namespace) -> int:
             raise ValueError(f"--{n.replace('_', '-')}: with --engine mujoco or both (MuJoCo C's)")
     if args.video and engine == "mujoco":
         raise ValueError("--video draws our simulator's walk: with --engine ours or both")
-    from cpgjax.cli.simulate import header_settings
+    from cpgjax.cli.controllers import header_settings
 
     rp = header_settings(args.ctl, args, takes=("pipeline", "command"))   # --time is the walk's, not an episode's
     if rp.note:

@@ -51,32 +51,8 @@ def register(subparsers: Any) -> None:
     r.set_defaults(func=cmd_robustness)
 
 
-def load_controller(ctl: str | None, model):
-    """The controller of ``ctl`` for ``model`` (zeros without one) and its name: CPG coefficients [n_ctrl, 2K+1],
-    or a closed-loop controller (:func:`cpgjax.episode.policy.from_control`)."""
-    from cpgjax.episode.policy import from_control
-    from cpgjax.io.ctl import read_ctl
-
-    if not ctl:
-        return np.zeros((model.n_ctrl, model.n_coeff)), "-"
-    c = read_ctl(ctl, n_dof=model.n_ctrl, harmonics=model.episode.harmonics)
-    return from_control(c, model), ctl
-
-
-def header_settings(ctls: list[str], args: argparse.Namespace, takes: tuple[str, ...] = ("pipeline", "time", "terrain"),
-                    model: str | None = None):
-    """The :class:`~cpgjax.io.ctl.Replay` settings of the controllers ``ctls`` on ``model`` (``args.model``): the
-    options ``takes`` names, given, else their headers' (a header made for another model, or a contradicted
-    pipeline, is refused: :func:`cpgjax.io.ctl.replay_settings`)."""
-    from cpgjax.io.ctl import read_ctl, replay_settings
-    from cpgjax.io.ctl_header import OPTION
-
-    given = {k: getattr(args, OPTION.get(k, k), None) if k in takes else None
-             for k in ("pipeline", "time", "terrain", "command")}
-    return replay_settings([read_ctl(c) for c in ctls], model or args.model, **given, takes=takes)
-
-
 def cmd_simulate(args: argparse.Namespace) -> int:
+    from cpgjax.cli.controllers import header_settings, load_controller
     from cpgjax.episode.batch import simulate
     from cpgjax.io.logs import pose_rows, write_log
     from cpgjax.io.wl import load_model
@@ -161,6 +137,7 @@ def _simulate_mujoco(args: argparse.Namespace, model, coeffs, ctl_name: str, T: 
 
 def cmd_robustness(args: argparse.Namespace) -> int:
     """Replay a controller with every gene moved by tiny random amounts: how chaotic is its score?"""
+    from cpgjax.cli.controllers import header_settings, load_controller
     from cpgjax.episode.batch import simulate
     from cpgjax.io.wl import load_model
 

@@ -145,7 +145,7 @@ def _table_a1(args: argparse.Namespace) -> int:
 def _pipeline(args: argparse.Namespace) -> str | None:
     """--pipeline, else the --ctl header's (a header made for another model, or contradicted, is refused); the
     study's --time is its own."""
-    from cpgjax.cli.simulate import header_settings
+    from cpgjax.cli.controllers import header_settings
 
     rp = header_settings([args.ctl], args, takes=("pipeline",))
     if rp.note and not getattr(args, "json", False):

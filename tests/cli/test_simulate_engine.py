@@ -24,7 +24,7 @@ def _printed(out: str) -> dict[str, float]:
 def test_mujoco_prints_what_mujoco_run_gives_for_the_same_controller(capsys):
     """The trot for 1 s at MuJoCo's 1 ms step: the command's figures are MuJoCo C's own rollout of the controller
     (crosscheck.engines.mujoco_run on the exported model), to the digits printed."""
-    from cpgjax.cli.simulate import load_controller
+    from cpgjax.cli.controllers import load_controller
     from cpgjax.crosscheck.engines import mujoco_run
     from cpgjax.crosscheck.mjcf import load
     from cpgjax.episode.policy import stack
