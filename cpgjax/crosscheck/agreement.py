@@ -12,6 +12,8 @@ Per gait and engine, from the same samples (every ``sample`` s, MuJoCo's states 
 - ``steep``: the share of touching samples whose contact normal is more than :data:`STEEP` from vertical (ours:
   the terrain's normal under the vertex; MuJoCo: its contact frame's);
 - ``slip``: the touching feet's mean speed along the ground [mm/s] between two samples at which they touch;
+- ``slip_deep``: the same over the samples at which a foot is deeper than :data:`DEEP` in both, several times as
+  deep as a resting foot sinks, where the ground pushes hard unless the foot is on its way out (0 where none is);
 - ``landings``: how often a foot lands, per leg and second (a foot that bounces lands more often than it steps);
 - ``past``: how far a joint went past its limit, the largest over joints and samples [rad] (ours: a penalty
   torque pushes it back; MuJoCo: its soft limit constraint, :mod:`cpgjax.crosscheck.limits`);
@@ -44,6 +46,7 @@ from cpgjax.sim.rotation import quat_to_mat_np
 
 STEEP = math.radians(25.0)   # a contact normal this far from vertical pushes sideways
 SAMPLE = 0.002               # s: the feet are watched at this interval in both engines
+DEEP = 0.002                 # m: slip_deep counts feet deeper than this (the quadruped at rest: 0.34 mm)
 
 
 @dataclass
@@ -93,6 +96,8 @@ def diagnose(w: Watch, leg_names, sample: float, limits=None) -> dict:
     both = t[1:] & t[:-1]
     step = np.linalg.norm(np.diff(w.feet[..., :2], axis=0), axis=-1) / sample
     slip = float(step[both].mean() * 1e3) if both.any() else 0.0
+    deep = both & (w.depth[1:] > DEEP) & (w.depth[:-1] > DEEP)
+    slip_deep = float(step[deep].mean() * 1e3) if deep.any() else 0.0
     landings = float(np.sum(np.diff(t.astype(np.int8), axis=0) == 1) / t.shape[1] / (sample * len(t)))
     onset = np.nonzero(w.up < math.cos(FALL_TILT))[0]
     lost = "—"
@@ -105,7 +110,8 @@ def diagnose(w: Watch, leg_names, sample: float, limits=None) -> dict:
         lo, hi = (np.asarray(x, float) for x in limits)
         past = float(np.maximum(w.angle - hi, lo - w.angle).max(initial=0.0))
     return {"past": past, "depth": tuple(float(x) for x in (np.percentile(d, [50, 99]).tolist() + [d.max()])) if d.size
-            else (0.0, 0.0, 0.0), "steep": steep, "slip": slip, "landings": landings, "lost": lost}
+            else (0.0, 0.0, 0.0), "steep": steep, "slip": slip, "slip_deep": slip_deep, "landings": landings,
+            "lost": lost}
 
 
 def watch_ours(model, controller, time: float, sample: float = SAMPLE) -> tuple[dict, list[Watch]]:
@@ -280,7 +286,8 @@ def _cells(e: dict) -> list[str]:
     falls_ = [f"{e['falls']}", f"{e['speed_median']:.3f}"] if e.get("replays") and "speed_median" in e else (
         [f"{e['falls']}"] if e.get("replays") else [])
     return [f"{e['speed']:.3f}{' (fell)' if e['fell'] else ''}", *falls_, f"{d[0]:.1f} / {d[1]:.1f} / {d[2]:.1f}",
-            f"{100 * e['steep']:.0f} %", f"{e['slip']:.0f}", f"{e['landings']:.1f}", f"{e.get('past', 0.0):.2f}",
+            f"{100 * e['steep']:.0f} %", f"{e['slip']:.0f}", f"{e.get('slip_deep', 0.0):.0f}",
+            f"{e['landings']:.1f}", f"{e.get('past', 0.0):.2f}",
             e["lost"]]
 
 
@@ -290,7 +297,8 @@ def table(gaits: list[Gait]) -> str:
     med = bool(n) and all("speed_median" in g.ours for g in gaits)
     cols = ["speed [m/s]", *([f"falls of {n}"] if n else []), *([f"median speed of {n} [m/s]"] if med else []),
             "feet's depth, median / 99 % / max [mm]",
-            "steep", "slip [mm/s]", "landings per leg [1/s]", "past a joint limit [rad]", "first leg lost"]
+            "steep", "slip [mm/s]", f"slip deeper than {DEEP * 1e3:g} mm [mm/s]", "landings per leg [1/s]",
+            "past a joint limit [rad]", "first leg lost"]
     head = ["gait"] + [f"{c} here" for c in cols] + [f"{c} in MuJoCo C" for c in cols]
     align = ["---"] + [("---" if c.startswith(("feet", "first")) else "---:") for c in cols] * 2
     rows = ["| " + " | ".join([g.label, *_cells(g.ours), *_cells(g.mujoco)]) + " |" for g in gaits]

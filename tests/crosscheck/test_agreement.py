@@ -30,6 +30,14 @@ def test_feet_that_stand_do_not_slip_and_feet_that_slide_slip_at_their_speed():
     assert ag.diagnose(_watch(touch=False, speed=0.05), LEGS, ag.SAMPLE)["slip"] == 0.0            # in the air
 
 
+def test_only_feet_deeper_than_deep_count_in_the_loaded_slip():
+    """``slip_deep``: the slip of feet that carry a load (deeper than ag.DEEP, 2 mm); a foot skimming the ground at
+    1 mm slides without counting there."""
+    assert ag.diagnose(_watch(speed=0.05, depth=3e-3), LEGS, ag.SAMPLE)["slip_deep"] == pytest.approx(50.0)
+    d = ag.diagnose(_watch(speed=0.05, depth=1e-3), LEGS, ag.SAMPLE)
+    assert d["slip"] == pytest.approx(50.0) and d["slip_deep"] == 0.0
+
+
 def test_depth_and_steep_contacts_are_counted_over_the_touching_feet():
     d = ag.diagnose(_watch(depth=2e-3, nz=math.cos(math.radians(30))), LEGS, ag.SAMPLE)
     assert d["depth"] == pytest.approx((2.0, 2.0, 2.0))
@@ -151,7 +159,8 @@ def test_agreement_writes_its_table_and_summary(tiny_runs, tmp_path, capsys):
     assert data["summary"]["terrain"] == "rough:0.02:0.1:1" and 1 <= data["summary"]["gaits"] <= 2
     for g in data["gaits"]:
         for side in ("ours", "mujoco"):
-            assert set(g[side]) == {"fell", "speed", "depth", "steep", "slip", "landings", "past", "lost"}
+            assert set(g[side]) == {"fell", "speed", "depth", "steep", "slip", "slip_deep", "landings", "past",
+                                    "lost"}
 
 
 def test_a_controller_file_is_refused_in_one_line(capsys):
