@@ -40,6 +40,9 @@ def register(subparsers: Any) -> None:
     a.add_argument("--friction-spring", type=o.positive, nargs=2, metavar=("K", "B"),
                    help="our feet's friction bristle, spring [N/m] and damper [N s/m] (default: the model's "
                         "FrictionSpring, 1e3 300 for models/quadruped.wl); our side only")
+    a.add_argument("--ground", type=o.positive, nargs=2, metavar=("A", "B"),
+                   help="our ground's stiffness [N/m] and damping [N s/m] (eq. 3.7; default: the model's Ground, "
+                        "1e5 1e3 for models/quadruped.wl); our side only")
     a.add_argument("--mujoco-stiffness", type=o.positive, default=None, metavar="SCALE",
                    help="MuJoCo's contact stiffness and damping (its solref) scaled by this (default: as exported, "
                         "1); e.g. 4 sinks MuJoCo's walking feet about as deep as ours (docs/results/walker.md); "
@@ -75,9 +78,12 @@ def cmd_agreement(args: argparse.Namespace) -> int:
     note = runs_cone_note(files, args.mujoco_cone)
     if note:
         print(note, file=sys.stderr)
-    ours = None
+    ours = {}
     if args.friction_spring:
-        ours = {"friction_k": float(args.friction_spring[0]), "friction_b": float(args.friction_spring[1])}
+        ours |= {"friction_k": float(args.friction_spring[0]), "friction_b": float(args.friction_spring[1])}
+    if args.ground:
+        ours |= {"ground_A": float(args.ground[0]), "ground_B": float(args.ground[1])}
+    ours = ours or None
     from cpgjax.crosscheck.engines import control_period
     from cpgjax.crosscheck.impedance import contact_law
     from cpgjax.crosscheck.limits import joint_limit
@@ -90,8 +96,10 @@ def cmd_agreement(args: argparse.Namespace) -> int:
                                        pipeline=args.pipeline, time=args.time, ours=ours, replays=args.replays,
                                        progress=lambda _: bar.update())
     summary = agreement.summary(gaits) | {"terrain": args.terrain, "mujoco_dt": args.mujoco_dt}
-    if ours:
+    if args.friction_spring:
         summary["friction_spring"] = list(args.friction_spring)
+    if args.ground:
+        summary["ground"] = list(args.ground)
     if args.mujoco_stiffness is not None:
         summary["mujoco_stiffness"] = args.mujoco_stiffness
     if args.mujoco_contact is not None:

@@ -170,6 +170,8 @@ def test_a_controller_file_is_refused_in_one_line(capsys):
     one_line_error(capsys.readouterr().err, "agreement", expect=("run files", "cpgjax crosscheck"))
     assert cli.main(["agreement", "x.h5", "--mujoco-stiffness", "0"]) == 2
     one_line_error(capsys.readouterr().err, "agreement", expect=("--mujoco-stiffness", "> 0"))
+    assert cli.main(["agreement", "x.h5", "--ground", "1e5", "-300"]) == 2
+    one_line_error(capsys.readouterr().err, "agreement", expect=("--ground", "> 0"))
 
 
 def test_a_change_to_our_side_stays_on_our_side_in_the_jittered_replays(monkeypatch):
