@@ -18,20 +18,22 @@
 #   cpgjax best runs/walker/s1346.h5 --validate --ctl models/quadruped-rough.ctl
 # Chosen in our simulator alone; MuJoCo C only judged it:
 #   cpgjax transfer runs/walker/s1346.h5 --pick validated --terrain rough:0.02:0.1:K --mujoco-dt 0.00025   # K = 1..4
-# What it does with today's code (tests/test_models.py replays each line and checks it).  Our lines state their own
-# tolerance: the closed loop parts on the vector unit.  On an AMD EPYC, AVX-512 and AVX2 give the figures below,
+# What it does with today's code (tests/test_models.py replays each line and checks it).  The rough lines state their
+# own tolerance: the closed loop parts on the vector unit.  On an AMD EPYC, AVX-512 and AVX2 give the figures below,
 # SSE4.2 alone +4.33, +4.48, +4.39, +4.15 and +4.34 m (XLA_FLAGS=--xla_cpu_max_isa=...).  MuJoCo C's lines: at its
-# 0.25 ms step, its controller held for the robot's 2 ms control period.
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl  ->  walks +4.25 ±0.30 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:1  ->  walks +4.21 ±0.30 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:2  ->  walks +4.48 ±0.30 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:3  ->  walks +4.45 ±0.30 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:4  ->  walks +4.41 ±0.30 m in 10 s, stays up
+# 0.25 ms step, its controller held for the robot's 2 ms control period; they move with numpy's vector unit (the
+# policy's arithmetic): without AVX-512 (NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL") +5.43, +5.85, +5.30, +5.71
+# and +6.15 m.  Spreads of up to 0.30 m seen, ±0.35 stated.
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl  ->  walks +4.25 ±0.35 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:1  ->  walks +4.21 ±0.35 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:2  ->  walks +4.48 ±0.35 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:3  ->  walks +4.45 ±0.35 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:4  ->  walks +4.41 ±0.35 m in 10 s, stays up
 #   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --engine mujoco --mujoco-dt 0.00025  ->  walks +5.43 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:1 --engine mujoco --mujoco-dt 0.00025  ->  walks +6.05 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:2 --engine mujoco --mujoco-dt 0.00025  ->  walks +5.60 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:3 --engine mujoco --mujoco-dt 0.00025  ->  walks +5.44 m in 10 s, stays up
-#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:4 --engine mujoco --mujoco-dt 0.00025  ->  walks +6.08 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:1 --engine mujoco --mujoco-dt 0.00025  ->  walks +6.05 ±0.35 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:2 --engine mujoco --mujoco-dt 0.00025  ->  walks +5.60 ±0.35 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:3 --engine mujoco --mujoco-dt 0.00025  ->  walks +5.44 ±0.35 m in 10 s, stays up
+#   cpgjax simulate models/quadruped.wl --ctl models/quadruped-rough.ctl --terrain rough:0.02:0.1:4 --engine mujoco --mujoco-dt 0.00025  ->  walks +6.08 ±0.35 m in 10 s, stays up
 0.475202
 -0.119351394  0.36081466  0.05291976  0.40399182  -0.030579891
 0.46766394  -0.38623127  0.34877357  -0.583571  -0.19563366
