@@ -131,6 +131,15 @@ def mujoco_contact_option(p: argparse.ArgumentParser) -> None:
                         "docs/crosscheck.md, joint limits)")
 
 
+MUJOCO_OPTIONS = ("mujoco_dt", "mujoco_ground", "mujoco_contact", "mujoco_cone", "mujoco_limit")
+
+
+def mujoco_options_given(args: argparse.Namespace, names: tuple[str, ...] = MUJOCO_OPTIONS) -> list[str]:
+    """The flags of the MuJoCo C options ``names`` that ``args`` were given (``--mujoco-dt``, ...), for the error
+    of a command that runs no MuJoCo C."""
+    return [f"--{n.replace('_', '-')}" for n in names if getattr(args, n, None) is not None]
+
+
 @contextlib.contextmanager
 def mujoco_ground(args: argparse.Namespace):
     """Within this block MuJoCo C's ground has the form, the contact law, the friction cone and the contact stiffness

@@ -347,8 +347,9 @@ def cmd_follow(args: argparse.Namespace) -> int:
     if ctl_only:
         raise ValueError(f"{', '.join(ctl_only)}: with --ctl only (a repertoire's gaits run for whole cycles, on its "
                          "pipeline)")
-    mj_only = [f"--{n.replace('_', '-')}" for n in ("engine", "mujoco_dt", "mujoco_ground", "mujoco_contact",
-                                                    "mujoco_cone", "mujoco_limit") if getattr(args, n) is not None]
+    from cpgjax.cli.crosscheck import MUJOCO_OPTIONS, mujoco_options_given
+
+    mj_only = mujoco_options_given(args, ("engine", *MUJOCO_OPTIONS))
     if mj_only:
         raise ValueError(f"{', '.join(mj_only)}: with --ctl only (a repertoire's walk is its look-ahead's "
                          "simulation, in our simulator)")
@@ -377,9 +378,11 @@ def _follow_ctl(args: argparse.Namespace) -> int:
         if getattr(args, n) is not None:
             raise ValueError(f"--{n.replace('_', '-')}: with --repertoire only")
     engine = args.engine or "ours"
-    for n in ("mujoco_dt", "mujoco_ground", "mujoco_contact", "mujoco_cone", "mujoco_limit"):
-        if getattr(args, n) is not None and engine == "ours":
-            raise ValueError(f"--{n.replace('_', '-')}: with --engine mujoco or both (MuJoCo C's)")
+    from cpgjax.cli.crosscheck import mujoco_options_given
+
+    mj_only = mujoco_options_given(args)
+    if mj_only and engine == "ours":
+        raise ValueError(f"{mj_only[0]}: with --engine mujoco or both (MuJoCo C's)")
     if args.video and engine == "mujoco":
         raise ValueError("--video draws our simulator's walk: with --engine ours or both")
     from cpgjax.cli.controllers import header_settings

@@ -53,10 +53,17 @@ def register(subparsers: Any) -> None:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     from cpgjax.cli.controllers import header_settings, load_controller
+    from cpgjax.cli.crosscheck import mujoco_options_given
     from cpgjax.episode.batch import simulate
     from cpgjax.io.logs import pose_rows, write_log
     from cpgjax.io.wl import load_model
 
+    if args.engine == "mujoco":
+        for flag, given in (("--log", args.log), ("--gravity", args.gravity)):
+            if given is not None:
+                raise ValueError(f"{flag}: with --engine ours only (MuJoCo C's model is the export's)")
+    elif mujoco_options_given(args):
+        raise ValueError(f"{', '.join(mujoco_options_given(args))}: with --engine mujoco (MuJoCo C's)")
     o.check_output_dir(args.log, "--log")
     rp = header_settings([args.ctl] if args.ctl else [], args)
     model = load_model(args.model, dt=args.dt, terrain=rp.terrain, pipeline=rp.pipeline)
@@ -68,22 +75,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f"header    {rp.note}")
     if args.engine == "mujoco":
         return _simulate_mujoco(args, model, coeffs, ctl_name, T)
-    mj_only = [f"--{n.replace('_', '-')}" for n in ("mujoco_dt", "mujoco_ground", "mujoco_contact", "mujoco_cone",
-                                                    "mujoco_limit") if getattr(args, n) is not None]
-    if mj_only:
-        raise ValueError(f"{', '.join(mj_only)}: with --engine mujoco (MuJoCo C's)")
     r = simulate(model, coeffs, time=T, delta=args.delta, record=bool(args.log))
     body = model.body_names[model.track]
-    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, {model.pipeline} pipeline, "
-          f"dt {model.dt:g} s, terrain {model.terrain.spec})")
-    print(f"control   {ctl_name}")
-    print(f"time      {T:g} s")
-    print(f"distance  {float(r['distance']):+.4f} m   (body {body}, forward = +y)")
-    print(f"speed     {float(r['speed']):+.4f} m/s")
-    print(f"tilt      {np.degrees(float(r['tilt'])):.2f} deg (mean angle of the body normal from vertical)")
-    print(f"fitness   {float(r['fitness']):+.6f}   (eq. 4.6, delta {args.delta:g})")
-    print(f"fallen    {'yes' if r['fallen'] else 'no'}")
-    print(f"diverged  {'yes' if r['diverged'] else 'no'}")
+    _print_episode(args, model, f"{model.pipeline} pipeline, dt {model.dt:g} s", ctl_name, T, r)
     print(f"pivots    max stretch {1000 * float(r['pivot_err']):.3f} mm")
     if args.log:
         desc = model.description
@@ -111,9 +105,6 @@ def _simulate_mujoco(args: argparse.Namespace, model, coeffs, ctl_name: str, T: 
     from cpgjax.crosscheck.mjcf import cone_note, load
     from cpgjax.episode.policy import stack
 
-    for flag, given in (("--log", args.log), ("--gravity", args.gravity)):
-        if given is not None:
-            raise ValueError(f"{flag}: with --engine ours only (MuJoCo C's model is the export's)")
     for note in (rough_step_note([model.terrain.spec], args.mujoco_dt),
                  cone_note(model.mu_static, args.mujoco_cone or "pyramidal")):
         if note:
@@ -121,18 +112,24 @@ def _simulate_mujoco(args: argparse.Namespace, model, coeffs, ctl_name: str, T: 
     with mujoco_ground(args):
         mj = load(model) if args.mujoco_dt is None else load(model, timestep=args.mujoco_dt)
         r, _, _ = mujoco_run(model, stack([coeffs], model), time=T, delta=args.delta, mj=mj)
-    body = model.body_names[model.track]
-    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, MuJoCo C, "
-          f"step {mj.opt.timestep:g} s, controller every {model.dt:g} s, terrain {model.terrain.spec})")
+    r = {k: v[0] for k, v in r.items()}                     # the one robot
+    _print_episode(args, model, f"MuJoCo C, step {mj.opt.timestep:g} s, controller every {model.dt:g} s", ctl_name,
+                   T, r)
+    return 1 if r["diverged"] else 0
+
+
+def _print_episode(args: argparse.Namespace, model, engine: str, ctl_name: str, T: float, r: dict) -> None:
+    """The lines ``simulate`` prints for one episode ``r`` (one robot's metrics), in either engine."""
+    print(f"model     {args.model}  ({model.nb} bodies, {model.n_ctrl} controlled DOFs, {engine}, "
+          f"terrain {model.terrain.spec})")
     print(f"control   {ctl_name}")
     print(f"time      {T:g} s")
-    print(f"distance  {float(r['distance'][0]):+.4f} m   (body {body}, forward = +y)")
-    print(f"speed     {float(r['speed'][0]):+.4f} m/s")
-    print(f"tilt      {np.degrees(float(r['tilt'][0])):.2f} deg (mean angle of the body normal from vertical)")
-    print(f"fitness   {float(r['fitness'][0]):+.6f}   (eq. 4.6, delta {args.delta:g})")
-    print(f"fallen    {'yes' if r['fallen'][0] else 'no'}")
-    print(f"diverged  {'yes' if r['diverged'][0] else 'no'}")
-    return 1 if r["diverged"][0] else 0
+    print(f"distance  {float(r['distance']):+.4f} m   (body {model.body_names[model.track]}, forward = +y)")
+    print(f"speed     {float(r['speed']):+.4f} m/s")
+    print(f"tilt      {np.degrees(float(r['tilt'])):.2f} deg (mean angle of the body normal from vertical)")
+    print(f"fitness   {float(r['fitness']):+.6f}   (eq. 4.6, delta {args.delta:g})")
+    print(f"fallen    {'yes' if r['fallen'] else 'no'}")
+    print(f"diverged  {'yes' if r['diverged'] else 'no'}")
 
 
 def cmd_robustness(args: argparse.Namespace) -> int:
