@@ -99,6 +99,7 @@ class Perturbations:
     command: float = 0.0       # rad/s: range of the commanded turning rate (0: no command, eq. 4.6's score)
     speed: float = 0.0         # m/s: the score credits the speed up to this (0: no cap; with or without command)
     turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
+    overspeed: float = 0.0     # with speed: each m/s above the cap costs this many m/s of the credited speed
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -109,7 +110,7 @@ class Perturbations:
             raise ValueError(f"replicas must be >= 1, got {self.replicas}")
         for f in ("lift", "tilt", "roughness", "friction", "mass", "gain", "jitter", "bristle", "bristle_from",
                   "torque", "stiffness", "damping", "relief", "noise", "command", "speed", "turn_speed", "touch",
-                  "texture", "push"):
+                  "texture", "push", "overspeed"):
             v = getattr(self, f)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"perturbation {f} must be a finite number >= 0, got {v}")
@@ -139,6 +140,9 @@ class Perturbations:
             raise ValueError(f"perturbation turn_speed ({self.turn_speed:g}) is the speed credited at a full turn, "
                              f"the cap falling to it from speed at no turn: give speed too, at least as large "
                              f"(e.g. command=0.4,speed=0.6,turn_speed=0.2)")
+        if self.overspeed > 0 and self.speed == 0:
+            raise ValueError(f"perturbation overspeed ({self.overspeed:g}) charges the speed above the cap: give "
+                             f"speed too (e.g. command=0.3,speed=0.5,turn_speed=0.15,overspeed=1)")
         if not 0 <= self.worst <= self.replicas:
             raise ValueError(f"perturbation worst is how many of the {self.replicas} episodes (replicas) the score "
                              f"is the mean of, the worst ones: 0 (all) to {self.replicas}, got {self.worst}")
@@ -196,6 +200,9 @@ MEANING = {
              "eq. 4.6's (e.g. 0.5: a gait scored by how surely it reaches 0.5 m/s, not by how far past it it goes)",
     "turn_speed": "with speed: the cap falls from speed at no turn to this at a full turn (the episode's mean "
                   "abs(command) over command), m/s: a gait fast on a straight line and slow in a tight turn",
+    "overspeed": "with speed: each m/s walked above the cap is taken off the credited speed at this weight (0: "
+                 "the cap only credits; e.g. 1 with turn_speed: a gait too fast for a tight turn scores less, "
+                 "not the same)",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
     "fall_zero": "when on, a fall forfeits the episode, it scores 0",
     "fall_survival": "when on, a fall scales the episode's score by the share of it before the fall",
@@ -206,7 +213,7 @@ MEANING = {
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
          "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0,
-         "push": 0.0}
+         "push": 0.0, "overspeed": 0.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the

@@ -176,9 +176,18 @@ def switch_length(switch: float, T: float) -> dict:
             "per_rest": np.float32(1.0) / rest if rest > 0 else np.float32(0.0)}
 
 
-def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0):
+def capped(speed, cap, over: float = 0.0):
+    """``speed`` credited up to ``cap`` (m/s), less ``over`` times what it goes past the cap:
+    ``min(speed, cap) - over max(0, speed - cap)`` (``over = 1``: ``cap - |speed - cap|`` past the cap, the score
+    peaking at the cap)."""
+    out = jnp.minimum(speed, cap)
+    return out - over * jnp.maximum(speed - cap, 0.0) if over > 0 else out
+
+
+def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0, over: float = 0.0):
     """``heading_fitness x max(0, 1 - turn_error / (TOLERANCE limit))``, the heading fitness taken up to ``cap`` m/s
-    when ``cap > 0`` (a number, or one per episode; see the module docstring)."""
+    when ``cap > 0`` (a number, or one per episode; see the module docstring), less ``over`` times what it goes past
+    the cap (:func:`capped`)."""
     if not isinstance(cap, (int, float)) or cap > 0:     # an array: a cap per episode (perturb turn_speed)
-        heading_fitness = jnp.minimum(heading_fitness, cap)
+        heading_fitness = capped(heading_fitness, cap, over)
     return heading_fitness * jnp.maximum(0.0, 1.0 - turn_error / (TOLERANCE * limit))

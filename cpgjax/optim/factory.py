@@ -187,15 +187,17 @@ def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) 
     commanded turning rate (``steered``: :func:`cpgjax.episode.steering.tracking_fitness`, capped at ``p.speed``;
     with ``p.turn_speed`` the cap falls linearly to it as ``turn`` [episodes], the episode's mean ``abs(command)``,
     rises to ``p.command``), not eq. 4.6's; without a command, eq. 4.6's fitness taken up to ``p.speed`` when it is
-    set (a gait scored by how surely it reaches that speed, not by how far past it it goes); then a fall forfeits the
-    episode (``fall_zero``) or scales it by the share of it the robot stayed up (``fall_survival``)."""
+    set (a gait scored by how surely it reaches that speed, not by how far past it it goes); with ``p.overspeed``
+    the speed past the cap costs that many times itself (:func:`cpgjax.episode.steering.capped`); then a fall
+    forfeits the episode (``fall_zero``) or scales it by the share of it the robot stayed up (``fall_survival``)."""
     if steered:
         cap = p.speed
         if p.turn_speed > 0:
             cap = p.speed - (p.speed - p.turn_speed) * jnp.minimum(turn / p.command, 1.0)
-        r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command, cap))
+        r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command, cap,
+                                                                p.overspeed))
     elif p.speed > 0:
-        r = dict(r, fitness=jnp.minimum(r["fitness"], p.speed))
+        r = dict(r, fitness=steering.capped(r["fitness"], p.speed, p.overspeed))
     if p.fall_zero:
         r = dict(r, fitness=jnp.where(r["down"], 0.0, r["fitness"]))
     elif p.fall_survival:

@@ -130,6 +130,31 @@ def test_turn_speed_lowers_the_credited_speed_as_the_episode_turns_harder():
             Perturbations(**bad)
 
 
+def test_overspeed_charges_the_speed_past_the_cap_with_a_command_or_without():
+    """``overspeed=K``: past the cap each m/s costs K m/s of the credited speed (a gait 0.3 m/s too fast for its turn's
+    cap of 0.2 is credited 0.2 - 0.3 K), below it the speed is credited as it is; the same with eq. 4.6's fitness
+    without a command; without ``speed`` it is refused, and off it is left out of the run file's record."""
+    import jax.numpy as jnp
+
+    from cpgjax.episode.perturb import Perturbations
+    from cpgjax.optim.factory import episode_scores
+
+    v = jnp.asarray([0.1, 0.5, 0.5, 0.3])
+    r = {"heading_fitness": v, "turn_error": jnp.zeros(4)}
+    turn = jnp.asarray([0.4, 0.4, 0.0, 0.2])                     # caps 0.2, 0.2, 0.6, 0.4
+    p = Perturbations(command=0.4, speed=0.6, turn_speed=0.2, overspeed=1.0)
+    np.testing.assert_allclose(episode_scores(r, p, steered=True, turn=turn)["fitness"], [0.1, -0.1, 0.5, 0.3],
+                               rtol=1e-6, atol=1e-7)
+    half = Perturbations(command=0.4, speed=0.6, turn_speed=0.2, overspeed=0.5)
+    np.testing.assert_allclose(episode_scores(r, half, steered=True, turn=turn)["fitness"][1], 0.2 - 0.15, rtol=1e-6)
+    plain = Perturbations(speed=0.4, overspeed=2.0)
+    np.testing.assert_allclose(episode_scores({"fitness": v}, plain)["fitness"], [0.1, 0.2, 0.2, 0.3], rtol=1e-6)
+    assert "overspeed" not in Perturbations(speed=0.4).to_dict() and plain.to_dict()["overspeed"] == 2.0
+    for bad in ({"overspeed": 1.0}, {"speed": 0.4, "overspeed": -1.0}):
+        with pytest.raises(ValueError, match="overspeed"):
+            Perturbations(**bad)
+
+
 def test_worst_scores_a_controller_by_the_mean_of_its_worst_episodes():
     """``worst=K``: the fitness is the mean of the K lowest of a controller's episodes; the other metrics stay the
     means of all of them; 0 (the default, left out of the run file's record) is the mean of all."""
