@@ -179,15 +179,18 @@ def switch_length(switch: float, T: float) -> dict:
 def capped(speed, cap, over: float = 0.0):
     """``speed`` credited up to ``cap`` (m/s), less ``over`` times what it goes past the cap:
     ``min(speed, cap) - over max(0, speed - cap)`` (``over = 1``: ``cap - |speed - cap|`` past the cap, the score
-    peaking at the cap)."""
+    peaking at the cap).  Eq. 4.6's fitness under ``--perturb speed=V,overspeed=K`` without a command."""
     out = jnp.minimum(speed, cap)
     return out - over * jnp.maximum(speed - cap, 0.0) if over > 0 else out
 
 
 def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0, over: float = 0.0):
     """``heading_fitness x max(0, 1 - turn_error / (TOLERANCE limit))``, the heading fitness taken up to ``cap`` m/s
-    when ``cap > 0`` (a number, or one per episode; see the module docstring), less ``over`` times what it goes past
-    the cap (:func:`capped`)."""
-    if not isinstance(cap, (int, float)) or cap > 0:     # an array: a cap per episode (perturb turn_speed)
-        heading_fitness = capped(heading_fitness, cap, over)
-    return heading_fitness * jnp.maximum(0.0, 1.0 - turn_error / (TOLERANCE * limit))
+    when ``cap > 0`` (a number, or one per episode; see the module docstring); then, with ``over``, less ``over``
+    times what it goes past the cap, whatever the turn error (charged after the product, so that a gait too fast
+    for its turn scores less when it ignores the command too, not 0)."""
+    follow = jnp.maximum(0.0, 1.0 - turn_error / (TOLERANCE * limit))
+    if isinstance(cap, (int, float)) and cap <= 0:
+        return heading_fitness * follow
+    score = jnp.minimum(heading_fitness, cap) * follow     # cap, an array: one per episode (perturb turn_speed)
+    return score - over * jnp.maximum(heading_fitness - cap, 0.0) if over > 0 else score

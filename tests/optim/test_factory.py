@@ -131,9 +131,10 @@ def test_turn_speed_lowers_the_credited_speed_as_the_episode_turns_harder():
 
 
 def test_overspeed_charges_the_speed_past_the_cap_with_a_command_or_without():
-    """``overspeed=K``: past the cap each m/s costs K m/s of the credited speed (a gait 0.3 m/s too fast for its turn's
-    cap of 0.2 is credited 0.2 - 0.3 K), below it the speed is credited as it is; the same with eq. 4.6's fitness
-    without a command; without ``speed`` it is refused, and off it is left out of the run file's record."""
+    """``overspeed=K``: past the cap each m/s costs K m/s of the score (a gait 0.3 m/s too fast for its turn's cap of
+    0.2 scores 0.2 - 0.3 K when it follows the command, -0.3 K when it ignores it), below it the speed is credited
+    as it is; the same with eq. 4.6's fitness without a command; without ``speed`` it is refused, and off it is left
+    out of the run file's record."""
     import jax.numpy as jnp
 
     from cpgjax.episode.perturb import Perturbations
@@ -147,6 +148,11 @@ def test_overspeed_charges_the_speed_past_the_cap_with_a_command_or_without():
                                rtol=1e-6, atol=1e-7)
     half = Perturbations(command=0.4, speed=0.6, turn_speed=0.2, overspeed=0.5)
     np.testing.assert_allclose(episode_scores(r, half, steered=True, turn=turn)["fitness"][1], 0.2 - 0.15, rtol=1e-6)
+    # the charge comes after the turn error's factor: ignoring the command (an error of the whole range, factor 0)
+    # does not escape it
+    ignored = dict(r, turn_error=jnp.full(4, 0.4))
+    np.testing.assert_allclose(episode_scores(ignored, p, steered=True, turn=turn)["fitness"], [0.0, -0.3, 0.0, 0.0],
+                               atol=1e-7)
     plain = Perturbations(speed=0.4, overspeed=2.0)
     np.testing.assert_allclose(episode_scores({"fitness": v}, plain)["fitness"], [0.1, 0.2, 0.2, 0.3], rtol=1e-6)
     assert "overspeed" not in Perturbations(speed=0.4).to_dict() and plain.to_dict()["overspeed"] == 2.0
