@@ -99,7 +99,7 @@ class Perturbations:
     command: float = 0.0       # rad/s: range of the commanded turning rate (0: no command, eq. 4.6's score)
     speed: float = 0.0         # m/s: the score credits the speed up to this (0: no cap; with or without command)
     turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
-    overspeed: float = 0.0     # with speed: each m/s above the cap costs this many m/s of the credited speed
+    overspeed: float = 0.0     # with speed: each m/s above the cap costs this many m/s of the score
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -200,7 +200,7 @@ MEANING = {
              "eq. 4.6's (e.g. 0.5: a gait scored by how surely it reaches 0.5 m/s, not by how far past it it goes)",
     "turn_speed": "with speed: the cap falls from speed at no turn to this at a full turn (the episode's mean "
                   "abs(command) over command), m/s: a gait fast on a straight line and slow in a tight turn",
-    "overspeed": "with speed: each m/s walked above the cap is taken off the credited speed at this weight (0: "
+    "overspeed": "with speed: each m/s walked above the cap is taken off the score at this weight (0: "
                  "the cap only credits; e.g. 1 with turn_speed: a gait too fast for a tight turn scores less, "
                  "not the same)",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",

@@ -176,12 +176,17 @@ def switch_length(switch: float, T: float) -> dict:
             "per_rest": np.float32(1.0) / rest if rest > 0 else np.float32(0.0)}
 
 
+def overcharge(speed, cap, over: float):
+    """What ``speed`` going past ``cap`` (m/s) costs the score: ``over max(0, speed - cap)``."""
+    return over * jnp.maximum(speed - cap, 0.0)
+
+
 def capped(speed, cap, over: float = 0.0):
     """``speed`` credited up to ``cap`` (m/s), less ``over`` times what it goes past the cap:
     ``min(speed, cap) - over max(0, speed - cap)`` (``over = 1``: ``cap - |speed - cap|`` past the cap, the score
     peaking at the cap).  Eq. 4.6's fitness under ``--perturb speed=V,overspeed=K`` without a command."""
     out = jnp.minimum(speed, cap)
-    return out - over * jnp.maximum(speed - cap, 0.0) if over > 0 else out
+    return out - overcharge(speed, cap, over) if over > 0 else out
 
 
 def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0, over: float = 0.0):
@@ -193,4 +198,4 @@ def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0
     if isinstance(cap, (int, float)) and cap <= 0:
         return heading_fitness * follow
     score = jnp.minimum(heading_fitness, cap) * follow     # cap, an array: one per episode (perturb turn_speed)
-    return score - over * jnp.maximum(heading_fitness - cap, 0.0) if over > 0 else score
+    return score - overcharge(heading_fitness, cap, over) if over > 0 else score
