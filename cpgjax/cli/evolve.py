@@ -23,7 +23,8 @@ GA_OPTIONS = ("population", "generations", "mu_max", "gamma", "pocket", "crossov
 SEARCH_OPTIONS = ("method", "samples", "batch", "M", "width_end", "seed", "chunk")
 ES_OPTIONS = ("method", "samples", "population", "sigma", "lr", "seed", "chunk")
 ES_METHODS = ("cmaes", "sep_cmaes", "openes", "pgpe", "snes")   # cpgjax.optim.es.METHODS (no import at start-up)
-PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline", "start", "controller")
+PROBLEM_OPTIONS = ("time", "terrain", "delta", "replicas", "evaluation", "perturb", "pipeline", "start", "controller",
+                   "free")
 
 
 def register(subparsers: Any) -> None:
@@ -52,6 +53,12 @@ def register(subparsers: Any) -> None:
                             "others get weights of 0")
         o.pipeline_option(p, "the model file's Pipeline, else springs; on --resume the run's")
         o.controller_option(p)
+        p.add_argument("--free", default=None, metavar="GROUP+GROUP",
+                       help="evolve only these genes, the others kept at the starting controller's values (the GA "
+                            "only): cpg, the CPG's coefficients, or a group the --controller's policy reads, its "
+                            "weights; e.g. --start models/quadruped-rough.ctl --controller "
+                            "pmtg:tilt+contact+command+steer+turn+bias:mirror --free command+steer+turn teaches a "
+                            "walker to turn and leaves its straight gait as it is (default: every gene evolves)")
         o.seed_option(p, None, shown=d.seed)
         p.add_argument("--chunk", type=o.count, default=None,
                        help=f"generations compiled and run as one piece between writes to the run file; a kill loses "

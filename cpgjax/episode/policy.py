@@ -98,6 +98,17 @@ class Family:
             return mirror(model, self).n_genes
         return model.n_genes + self.n_weights(model)
 
+    def gene_groups(self, model) -> np.ndarray:
+        """[n_genes] the group of each gene in this family's genome: ``cpg`` for the CPG's coefficients, else the
+        sensor group its weight reads (with ``mirror``, the group of the free gene's place in the full genome)."""
+        cols = np.concatenate([np.full(n, g, dtype=object) for g, n in self.input_sizes(model)])
+        full = np.concatenate([np.full(model.n_genes, "cpg", dtype=object), np.tile(cols, self.n_out(model))])
+        if self.mirror:
+            from cpgjax.episode.mirror import mirror
+
+            full = full[mirror(model, self).rep]
+        return full.astype(str)
+
     @property
     def plain(self) -> Family:
         """The same family without ``mirror``: the controller a genome of this family is."""

@@ -102,8 +102,10 @@ def cached_chunk_fn(problem: Problem, algo: Algorithm, chunk: int, static: tuple
     constant in it: problems that differ by the length alone compile the same program (which the persistent
     compilation cache then holds once).
     """
+    held = None if problem.held is None else (np.asarray(problem.held, bool).tobytes(),   # the GA's tell puts
+                                               np.asarray(problem.base_genome, np.float32).tobytes())  # them back
     key = (id(problem.evaluate), problem.n_genes, problem.lower, problem.upper, algo.kind,
-           algo.population, chunk, static)
+           algo.population, chunk, static, held)
     hit = _CHUNK_CACHE.get(key)
     if hit is not None and hit[0] is problem.evaluate:
         return hit[1]
@@ -257,7 +259,7 @@ _META_OPTIONS = {"evaluation": ("--evaluation", "evaluation", ""), "pipeline": (
                  "delta": ("--delta", "delta of the fitness", ""), "replicas": ("--replicas", "replicas", ""),
                  "jitter": (None, "replicas' jitter", ""), "dt": ("--dt", "time step", " s"),
                  "controller": ("--controller", "controller", ""), "start": ("--start", "starting controller", ""),
-                 "perturbations": ("--perturb", "perturbation ranges", "")}
+                 "perturbations": ("--perturb", "perturbation ranges", ""), "free": ("--free", "genes evolved", "")}
 _GIVEN_AS = {"perturbations": "perturb"}     # meta key -> its key in cli_problem_args, where they differ
 _FIX = "(drop the option, or start anew with --overwrite)"
 

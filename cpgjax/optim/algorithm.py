@@ -105,8 +105,13 @@ class Config(Protocol):
 
 def make_algorithm(problem: Problem, cfg: Config) -> Algorithm:
     """The :class:`Algorithm` of a configuration on ``problem`` (the GA, a baseline search, an evolution
-    strategy, MAP-Elites: each configuration class makes its own)."""
-    return cfg.algorithm(problem)
+    strategy, MAP-Elites: each configuration class makes its own).  Only the GA keeps genes held
+    (``problem.held``); the others refuse such a problem."""
+    algo = cfg.algorithm(problem)
+    if problem.held is not None and algo.kind != "ga":
+        raise ValueError(f"--free (genes held at the start's values) applies to the GA (cpgjax evolve), not to "
+                         f"{algo.kind}")
+    return algo
 
 
 def stack_params(algo: Algorithm, params: Sequence[Any]) -> Any:

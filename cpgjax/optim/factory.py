@@ -43,7 +43,7 @@ EVALUATIONS = ("thesis", "robust")
 def make_problem(model: str, *, time: float | None = None, terrain: str | None = None,
                  delta: float | None = None, replicas: int | None = None, chunk: int | None = None,
                  evaluation: str | None = None, perturb: dict | None = None, pipeline: str | None = None,
-                 start: str | None = None, controller: str | None = None) -> Problem:
+                 start: str | None = None, controller: str | None = None, free: str | None = None) -> Problem:
     """The Problem for MODEL (a `.wl` file or ``analytic:KIND:G``), recording the settings in its meta.
 
     ``None`` means the default (the model's TimeMax and terrain, delta 8, one episode).  ``chunk``
@@ -58,6 +58,8 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
     ``controller``: the controller family (:func:`cpgjax.episode.policy.parse_controller`: ``cpg``, the thesis's
     open-loop CPG, the default; ``pmtg``: the CPG modulated by a feedback policy), recorded in the meta
     (``controller``) when not the CPG.
+    ``free``: ``GROUP+GROUP``, the only genes the search may change (:func:`held_genes`); the others keep the
+    start's values.  Recorded in the meta (``free``) when given.
     """
     evaluation = evaluation or "thesis"
     if evaluation not in EVALUATIONS:
@@ -86,12 +88,40 @@ def make_problem(model: str, *, time: float | None = None, terrain: str | None =
            "perturb": perturb or None, "pipeline": pipeline, "start": start}
     if controller is not None:
         cli["controller"] = controller
+    if free is not None:
+        cli["free"] = free
     meta = {**problem.meta, "cli_problem_args": json.dumps(cli)}
     if start is not None:
         base = start_genome(start, problem)
         meta["start"] = json.dumps({"path": str(start), "genome": [float(v) for v in base]})
         problem = dataclasses.replace(problem, base_genome=base)
+    if free is not None:
+        held, meta["free"] = held_genes(free, problem, family)
+        problem = dataclasses.replace(problem, held=held)
     return dataclasses.replace(problem, meta=meta)
+
+
+def held_genes(free: str, problem: Problem, family) -> tuple[np.ndarray, str]:
+    """([n_genes] bool, the groups as recorded): the genes kept at the start's values when only those of ``free``
+    evolve.  ``free``: ``GROUP+GROUP`` of ``cpg`` (the CPG's coefficients) and the groups the controller's policy
+    reads (the weights that read them: ``command+steer+turn`` teaches a walker to turn and leaves its gait)."""
+    groups = [g.strip().lower() for g in str(free).split("+")]
+    if family is None:
+        names = ["cpg"]
+        labels = np.full(problem.n_genes, "cpg")
+    else:
+        names = ["cpg", *family.inputs]
+        model = load_model(problem.meta["model_path"], pipeline=problem.meta.get("pipeline"))
+        labels = family.gene_groups(model)
+    bad = [g for g in groups if g not in names]
+    if bad or not all(groups) or len(set(groups)) != len(groups):
+        raise ValueError(f"--free {free}: the groups are distinct ones of {', '.join(names)} (this run's "
+                         f"--controller {family.spec if family else 'cpg'}); got {', '.join(bad) or free!r}")
+    held = ~np.isin(labels, groups)
+    if held.all() or not held.any():
+        raise ValueError(f"--free {free}: " + ("no gene would evolve" if held.all() else
+                                               "every gene evolves anyway; leave --free out"))
+    return held, "+".join(g for g in names if g in groups)
 
 
 def start_genome(path: str, problem: Problem) -> np.ndarray:

@@ -122,7 +122,8 @@ class GAConfig:
         return GeneticAlgorithm(kind="ga", population=self.population, generations=self.generations,
                                 config=self.to_dict(), params=self.params(problem.lower, problem.upper),
                                 resumable_changes=("chunk", "generations"), base=base,
-                                init_spread=self.init_spread, lower=problem.lower, upper=problem.upper)
+                                init_spread=self.init_spread, lower=problem.lower, upper=problem.upper,
+                                held=None if problem.held is None else np.asarray(problem.held, bool))
 
 
 @jax.tree_util.register_dataclass
@@ -274,16 +275,24 @@ class GeneticAlgorithm(Algorithm[GAState]):
     init_spread: float
     lower: float
     upper: float
+    held: np.ndarray | None = None   # [G] bool: genes kept at ``base`` in every individual (None: all evolve)
+
+    def _hold(self, population: jax.Array) -> jax.Array:
+        """``population`` with the held genes put back to the start's (exactly: nothing else changes)."""
+        if self.held is None:
+            return population
+        return jnp.where(jnp.asarray(self.held), jnp.asarray(self.base, population.dtype), population)
 
     def init(self, params: GAParams, key: jax.Array) -> GAState:
-        return GAState(init_population(key, self.base, self.population, self.init_spread, self.lower, self.upper))
+        return GAState(self._hold(init_population(key, self.base, self.population, self.init_spread, self.lower,
+                                                  self.upper)))
 
     def ask(self, params: GAParams, state: GAState, key: jax.Array, gen) -> tuple[jax.Array, GAState]:
         return state.population, state
 
     def tell(self, params: GAParams, state: GAState, genomes: jax.Array, scores: Scores, key: jax.Array,
              gen) -> GAState:
-        return GAState(reproduce(key, genomes, scores["fitness"], params, gen, scores["diverged"]))
+        return GAState(self._hold(reproduce(key, genomes, scores["fitness"], params, gen, scores["diverged"])))
 
     def mutation_rate(self, params: GAParams, gen) -> Any:
         return mutation_rate(gen, params.mu_max, params.gamma)

@@ -48,6 +48,9 @@ class Problem:
     ``evaluate`` also takes it as the keyword ``length`` (its default: this one), and the drivers pass it as an
     argument of the compiled program (:func:`cpgjax.optim.algorithm.make_chunk_fn`): one program for every
     episode length of a model and population.
+
+    ``held``: [n_genes] bool, the genes the search keeps at ``base_genome`` (``cpgjax evolve --free``: only the
+    other genes evolve), or None: every gene evolves.  The GA honours it; the other searches refuse it.
     """
 
     name: str
@@ -59,3 +62,4 @@ class Problem:
     meta: dict = field(default_factory=dict)
     stochastic: bool = False
     length: Any = None
+    held: Any = None

@@ -179,3 +179,27 @@ def test_worst_scores_a_controller_by_the_mean_of_its_worst_episodes():
     assert "worst" not in Perturbations().to_dict() and Perturbations(worst=2).to_dict()["worst"] == 2
     with pytest.raises(ValueError, match="worst"):
         Perturbations(replicas=4, worst=5)
+
+
+def test_free_holds_every_gene_but_the_named_groups_at_the_starts():
+    """``--free command+steer+turn`` on the mirrored steering family started from the rough walker: the 22 genes
+    that weigh the command (4), the command times the phase (12) and its size (6) evolve, the CPG and the weights
+    of tilt, contact and bias are held at the walker's; the groups are checked and recorded."""
+    from cpgjax.episode.policy import parse_controller
+    from cpgjax.io.wl import load_model
+    from cpgjax.optim.algorithm import make_algorithm
+    from cpgjax.optim.es import ESConfig
+
+    fam = "pmtg:tilt+contact+command+steer+turn+bias:mirror"
+    p = make_problem(WL, pipeline="exact", start="models/quadruped-rough.ctl", controller=fam,
+                     evaluation="robust", perturb={"command": 0.4}, free="turn+steer+command", time=0.3)
+    labels = parse_controller(fam).gene_groups(load_model(WL, pipeline="exact"))
+    assert p.meta["free"] == "command+steer+turn" and len(labels) == p.n_genes == 78
+    np.testing.assert_array_equal(~p.held, np.isin(labels, ["command", "steer", "turn"]))
+    assert (~p.held).sum() == 22 and set(labels[p.held]) == {"cpg", "tilt", "contact", "bias"}
+    with pytest.raises(ValueError, match="distinct ones of cpg, tilt, contact, command, steer, turn, bias"):
+        make_problem(WL, controller=fam, free="steer+rates", time=0.3)
+    with pytest.raises(ValueError, match="every gene evolves"):
+        make_problem(WL, free="cpg", time=0.3)
+    with pytest.raises(ValueError, match="applies to the GA"):
+        make_algorithm(p, ESConfig())

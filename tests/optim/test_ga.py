@@ -230,3 +230,18 @@ def test_ga_is_reproducible_from_its_seed_and_independent_of_chunking():
         np.testing.assert_array_equal(h[0][k], h[1][k])
         np.testing.assert_array_equal(h[0][k], h[2][k])
     assert not np.array_equal(h[0]["genomes"], h[3]["genomes"])
+
+
+def test_held_genes_stay_the_starts_bit_for_bit_and_the_others_still_find_the_optimum():
+    """``Problem.held`` (``evolve --free``): every individual of every generation keeps the held genes at the start's
+    values, and the free ones converge as an unheld GA's do (the sphere's optimum, in those genes)."""
+    import dataclasses
+
+    problem = analytic_problem("analytic:sphere:10")
+    held = np.arange(10) % 2 == 0
+    base = np.linspace(-0.3, 0.3, 10).astype(np.float32)
+    s = run_ga(dataclasses.replace(problem, base_genome=base, held=held),
+               ga.GAConfig(generations=120, pocket=4, chunk=6, seed=3, crossover=True, mutation="redraw"))
+    g = s["history"]["genomes"]
+    np.testing.assert_array_equal(g[..., held], np.broadcast_to(base[held], g[..., held].shape))
+    assert np.sqrt(np.mean((s["best_genome"][~held] - default_optimum(10)[~held]) ** 2)) < 0.05
