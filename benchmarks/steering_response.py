@@ -4,9 +4,12 @@ Each `.ctl` (a closed-loop controller that reads the command) walks 10 s from re
 constant commanded turning rate of -0.4, -0.3, ..., +0.4 rad/s (a `steering.Schedule` whose two halves are
 equal), all in one batch; printed per command: the mean turning rate (the heading of the tracked body unwrapped
 at the log samples, its change over the episode), the speed along +y and whether it fell (body past 90 degrees).
-The tables of docs/results/steering.md and steering-recipes.md.
+The tables of docs/results/steering.md and steering-recipes.md.  ``--engine mujoco`` (or ``both``) walks the same
+controllers under the same constant commands in MuJoCo C (``crosscheck.engines.mujoco_closed_run``, at
+``--mujoco-dt``, its controller held for the robot's 2 ms control period), measured alike from its root body's
+quaternions: how much of a command each engine turns.
 
-    .venv/bin/python benchmarks/steering_response.py CTL [CTL ...] [--time 10]
+    .venv/bin/python benchmarks/steering_response.py CTL [CTL ...] [--time 10] [--engine ours|mujoco|both]
 """
 
 from __future__ import annotations
@@ -43,31 +46,65 @@ def turning_rates(q: np.ndarray, time: float) -> np.ndarray:
     return (heading[-1] - heading[0]) / time
 
 
-def table(paths: list[str], turn, speed, fallen) -> list[str]:
-    """One row per controller: per command its turning rate and speed, and "(fell)" where it fell."""
+def table(paths: list[str], turn, speed, fallen, engine: str | None = None) -> list[str]:
+    """One row per controller: per command its turning rate and speed, and "(fell)" where it fell; with ``engine``,
+    a column that names it."""
     n = len(COMMANDS)
-    lines = ["| controller | " + " | ".join(f"{c:+.1f}" for c in COMMANDS) + " |", "|---|" + "---:|" * n]
+    head = "| controller | " + ("engine | " if engine else "")
+    rule = "|---|" + ("---|" if engine else "") + "---:|" * n
+    lines = [head + " | ".join(f"{c:+.1f}" for c in COMMANDS) + " |", rule]
     for i, p in enumerate(paths):
         k = range(i * n, (i + 1) * n)
-        lines.append(f"| {p} | " + " | ".join(f"{turn[j]:+.2f}, {speed[j]:.2f}" + (" (fell)" if fallen[j] else "")
-                                               for j in k) + " |")
+        lines.append(f"| {p} | " + (f"{engine} | " if engine else "") +
+                     " | ".join(f"{turn[j]:+.2f}, {speed[j]:.2f}" + (" (fell)" if fallen[j] else "") for j in k) + " |")
     return lines
+
+
+def ours(m, paths: list[str], time: float):
+    """(turning rates, speeds, fallen) [robots] of :func:`batch` in our simulator."""
+    from cpgjax.episode.batch import simulate
+
+    r = simulate(m, batch(m, paths, time), time=time, record=True)
+    q = np.moveaxis(np.asarray(r["traj"]["q"][:, :, m.track], float), 1, 0)      # [4, samples, robots]
+    return turning_rates(q, time), np.asarray(r["speed"]), np.asarray(r["fallen"])
+
+
+def mujoco(m, paths: list[str], time: float, timestep: float):
+    """The same in MuJoCo C: :func:`batch`'s controllers, each with its constant command (``ClosedLoop.command``)."""
+    from cpgjax.crosscheck.engines import mujoco_closed_run, root_slice
+    from cpgjax.crosscheck.mjcf import load
+
+    c = batch(m, paths, time)
+    c = c.replace(command=np.asarray(c.steer.first, np.float32), steer=None)
+    mj = load(m, timestep=timestep)
+    metrics, qpos, _ = mujoco_closed_run(m, c, time=time, timestep=timestep, mj=mj)
+    q = np.moveaxis(qpos[:, :, root_slice(m, mj)][:, :, 3:], 2, 0)                   # [4, samples, robots]
+    return turning_rates(np.moveaxis(q, 1, 2), time), np.asarray(metrics["speed"]), np.asarray(metrics["fallen"])
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("ctl", nargs="+", help="closed-loop controllers that read the command (.ctl)")
     ap.add_argument("--time", type=float, default=10.0, help="episode [s] (default 10)")
+    ap.add_argument("--engine", choices=("ours", "mujoco", "both"), default="ours",
+                    help="our simulator, MuJoCo C, or both, a row each (default ours)")
+    ap.add_argument("--mujoco-dt", type=float, default=0.002, help="MuJoCo C's step [s] (default 0.002)")
     a = ap.parse_args(argv)
-    if a.time <= 0:
-        ap.error("--time must be positive")
-    from cpgjax.episode.batch import simulate
+    if a.time <= 0 or a.mujoco_dt <= 0:
+        ap.error("--time and --mujoco-dt must be positive")
     from cpgjax.io.wl import load_model
 
     m = load_model(MODEL, pipeline="exact")
-    r = simulate(m, batch(m, a.ctl, a.time), time=a.time, record=True)
-    q = np.moveaxis(np.asarray(r["traj"]["q"][:, :, m.track], float), 1, 0)      # [4, samples, robots]
-    print("\n".join(table(a.ctl, turning_rates(q, a.time), r["speed"], r["fallen"])))
+    if a.engine == "ours":
+        print("\n".join(table(a.ctl, *ours(m, a.ctl, a.time))))
+        return 0
+    rows = [] if a.engine == "mujoco" else [(ours(m, a.ctl, a.time), "ours")]
+    rows.append((mujoco(m, a.ctl, a.time, a.mujoco_dt), f"MuJoCo C, {a.mujoco_dt * 1e3:g} ms"))
+    lines = []
+    for (turn, speed, fallen), name in rows:
+        t = table(a.ctl, turn, speed, fallen, name)
+        lines += t if not lines else t[2:]
+    print("\n".join(lines))
     return 0
 
 

@@ -65,3 +65,30 @@ def test_a_turn_past_half_a_circle_is_unwrapped(bench):
     psi = np.stack([1.0 * t, -0.7 * t], 1)                                   # 10 rad and -7 rad in 10 s
     q = np.stack([np.cos(psi / 2), 0 * psi, 0 * psi, np.sin(psi / 2)])
     np.testing.assert_allclose(bench.turning_rates(q, 10.0), [1.0, -0.7], atol=1e-9)
+
+
+def test_mujoco_walks_each_controller_under_each_constant_command_and_adds_its_rows(bench, tmp_path, monkeypatch,
+                                                                                     capsys):
+    """``--engine mujoco``: the batch's commands reach MuJoCo C as each controller's constant command (no schedule),
+    a real 0.1 s walk from rest, its rows measured from the root body's quaternions as ours are."""
+    import cpgjax.crosscheck.engines as engines
+
+    ctls = [_steering_ctl(tmp_path / "a.ctl"), _steering_ctl(tmp_path / "b.ctl")]
+    real, seen = engines.mujoco_closed_run, {}
+
+    def run(model, c, **kw):
+        seen.update(command=np.asarray(c.command), steer=c.steer, time=kw["time"], dt=kw["timestep"])
+        out = real(model, c, **kw)
+        seen["qpos"] = out[1]
+        return out
+
+    monkeypatch.setattr(engines, "mujoco_closed_run", run)
+    assert bench.main([*ctls, "--time", "0.1", "--engine", "mujoco", "--mujoco-dt", "0.002"]) == 0
+    np.testing.assert_array_equal(seen["command"], np.tile(bench.COMMANDS, 2))
+    assert seen["steer"] is None and (seen["time"], seen["dt"]) == (0.1, 0.002)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("| controller | engine | -0.4 |") and len(lines) == 4
+    assert all(" | MuJoCo C, 2 ms | " in row for row in lines[2:])
+    q = np.moveaxis(seen["qpos"][:, :, 3:7], 2, 0)                       # the root's quaternion, [4, robots, samples]
+    turn = bench.turning_rates(np.moveaxis(q, 1, 2), 0.1)[:9]
+    assert [c.split(",")[0] for c in lines[2].strip(" |").split(" | ")[2:]] == [f"{t:+.2f}" for t in turn]
