@@ -95,15 +95,12 @@ def main(argv: list[str] | None = None) -> int:
     from cpgjax.io.wl import load_model
 
     m = load_model(MODEL, pipeline="exact")
-    if a.engine == "ours":
-        print("\n".join(table(a.ctl, *ours(m, a.ctl, a.time))))
-        return 0
-    rows = [] if a.engine == "mujoco" else [(ours(m, a.ctl, a.time), "ours")]
-    rows.append((mujoco(m, a.ctl, a.time, a.mujoco_dt), f"MuJoCo C, {a.mujoco_dt * 1e3:g} ms"))
-    lines = []
-    for (turn, speed, fallen), name in rows:
-        t = table(a.ctl, turn, speed, fallen, name)
-        lines += t if not lines else t[2:]
+    lines = []                  # one table: ours alone as before; with MuJoCo C a column naming each row's engine
+    if a.engine != "mujoco":
+        lines += table(a.ctl, *ours(m, a.ctl, a.time), "ours" if a.engine == "both" else None)
+    if a.engine != "ours":
+        lines += table(a.ctl, *mujoco(m, a.ctl, a.time, a.mujoco_dt), f"MuJoCo C, {a.mujoco_dt * 1e3:g} ms")[
+            2 if lines else 0:]
     print("\n".join(lines))
     return 0
 
