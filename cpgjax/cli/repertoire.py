@@ -211,6 +211,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--video", default=None, metavar="OUT.mp4",
                    help="render the walk to this video file (.mp4 or .gif; --ctl: one controller, one path)")
     p.add_argument("--out", default=None, metavar="WALK.json", help="write the walk (positions, gaits) as JSON")
+    p.add_argument("--plot", default=None, metavar="WALKS.png",
+                   help="--ctl: draw every walk, a panel per controller and path, each engine's walk in it")
     p.set_defaults(func=cmd_follow)
 
     p = subparsers.add_parser("repertoire-plot", help="a repertoire's heatmap, coverage and QD-score per evaluation")
@@ -338,9 +340,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_follow(args: argparse.Namespace) -> int:
     from cpgjax.experiments.follow import follow
 
-    for f in (args.out, args.video):
-        if f:
-            o.check_output_file(f, "--out" if f == args.out else "--video")
+    for f, flag in ((args.out, "--out"), (args.video, "--video"), (args.plot, "--plot")):
+        o.check_output_file(f, flag)
+    if args.plot and not args.ctl:
+        raise ValueError("--plot: with --ctl only (a repertoire's walk: --video)")
     if args.ctl:
         return _follow_ctl(args)
     ctl_only = [f"--{n}" for n in ("time", "gain", "limit", "pipeline") if getattr(args, n) is not None]
@@ -421,4 +424,9 @@ def _follow_ctl(args: argparse.Namespace) -> int:
     if args.out:
         with open(args.out, "w") as f:
             json.dump(r, f, indent=1)
+    if args.plot:
+        from cpgjax.plots.steering import walks_figure
+
+        walks_figure(r).savefig(args.plot, dpi=110)
+        print(f"wrote {args.plot}")
     return 0

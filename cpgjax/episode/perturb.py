@@ -43,7 +43,9 @@ episodes, each with fresh perturbations drawn per robot from its own key:
 **Domain randomisation** is the named preset :data:`PRESETS` ``domain`` (``--perturb preset=domain``): every range
 above at once, wide (docs/evolution.md); keys given beside it override its values.
 
-A fall (the body tilted past 60 degrees) ends the episode's score (``fall_ends``, on by default), or
+A fall (the body tilted past 60 degrees, or past ``fall_tilt`` degrees: a margin below the tilt at which the
+judges, ``follow``, ``transfer`` and MuJoCo C's replays, call a fall) ends the episode's score (``fall_ends``, on
+by default), or
 forfeits it (``fall_zero``: the episode scores 0, so the mean over the R episodes is the controller's
 speed times the share of episodes it stays up in: a gait that lunges and falls cannot beat one that walks),
 or scales it by the share of the episode before the fall (``fall_survival``: the same pressure, but a
@@ -71,6 +73,7 @@ TEXTURE_CELL = 0.025    # m: cell of the texture's fine relief (``texture``)
 SHIFT = (1.5, 2.0)      # m: half-ranges of the random spot in x and y
 PUSH_WINDOW = (0.2, 0.8)  # the shove's time, as a share of the episode: drawn uniformly in this window
 PUSH_MAX = 2.0          # m/s: the largest shove accepted
+FALL_TILT_MIN = 20.0    # degrees: the smallest tilt accepted as a fall (the walking gaits tilt 15-30 degrees)
 
 
 @dataclass(frozen=True)
@@ -104,6 +107,7 @@ class Perturbations:
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
     worst: int = 0             # the score is the mean of the worst this many of the replicas' episodes (0: all)
+    fall_tilt: float = 60.0    # degrees: the tilt past which the evaluation counts a fall (the judges keep 60)
 
     def __post_init__(self) -> None:
         if self.replicas < 1:
@@ -146,6 +150,9 @@ class Perturbations:
         if not 0 <= self.worst <= self.replicas:
             raise ValueError(f"perturbation worst is how many of the {self.replicas} episodes (replicas) the score "
                              f"is the mean of, the worst ones: 0 (all) to {self.replicas}, got {self.worst}")
+        if not (np.isfinite(self.fall_tilt) and FALL_TILT_MIN <= self.fall_tilt <= 60.0):
+            raise ValueError(f"perturbation fall_tilt is the tilt counted as a fall, in degrees, from "
+                             f"{FALL_TILT_MIN:g} to 60 (the judges' fall), got {self.fall_tilt:g}")
         if self.fall_zero and self.fall_survival:
             raise ValueError("fall_zero and fall_survival exclude each other: a fall forfeits the episode or scales it")
 
@@ -204,6 +211,8 @@ MEANING = {
                  "the cap only credits; e.g. 1 with turn_speed: a gait too fast for a tight turn scores less, "
                  "not the same)",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
+    "fall_tilt": "the tilt counted as a fall in evolution, degrees, 20 to 60 (default 60, the judges' fall; e.g. 40: "
+                 "a gait that rocks to 50 degrees and recovers here counts as fallen, a margin for another engine)",
     "fall_zero": "when on, a fall forfeits the episode, it scores 0",
     "fall_survival": "when on, a fall scales the episode's score by the share of it before the fall",
     "worst": "the score is the mean of the worst this many of the replicas' episodes, 0 to replicas (default 0: the "
@@ -213,7 +222,7 @@ MEANING = {
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
          "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0,
-         "push": 0.0, "overspeed": 0.0}
+         "push": 0.0, "overspeed": 0.0, "fall_tilt": 60.0}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the

@@ -78,7 +78,7 @@ FALL_TILT = math.radians(60.0)
 
 
 def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, forward=1, var=None,
-            fall_ends=False, latency=0, noise=0.0, length=None):
+            fall_ends=False, fall_tilt=FALL_TILT, latency=0, noise=0.0, length=None):
     """Run B robots with CPG coefficients [n_ctrl, 2K+1, B]; returns a dict of [B] arrays.
 
     The episode lasts ``time`` s (None: the model's TimeMax), compiled in, or ``length`` (:func:`episode_length`,
@@ -102,7 +102,8 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
     depth at the samples, m), height (mean CM height of the tracked body, m).
     ``var``: a per-robot :class:`~cpgjax.sim.variation.Variation` (initial pose, masses, friction, gains,
     terrain shift); ``None`` is the nominal robot.  ``fall_ends``: a robot's fitness stops accumulating
-    once its body has tilted past ``FALL_TILT`` (the episode's fitness ends at the fall; it is still
+    once its body has tilted past ``fall_tilt`` (rad; ``FALL_TILT``, 60 degrees, unless the robust evaluation's
+    ``fall_tilt`` sets a margin below it) (the episode's fitness ends at the fall; it is still
     divided by the whole episode's length); ``down`` says which robots fell so (always False without it)
     and ``up`` the share of the episode before the fall (1 without one).
     ``Record``'s ``traj``: x, q [S, ., nb, B], angle, target [S, n, B], t [S], with
@@ -219,7 +220,7 @@ def rollout(model, coeffs, *, time=None, delta=8.0, probes=(), log_rate=None, fo
             zg, _ = terrain_under(model, p[0, model.ct_pt], p[1, model.ct_pt], var)
             depth = (zg - p[2, model.ct_pt]).max(0, initial=0.0) + zero
         cosu = up_cos(model, s_new.q)
-        down = acc["down"] | (fall_ends & (cosu < math.cos(FALL_TILT)))
+        down = acc["down"] | (fall_ends & (cosu < math.cos(fall_tilt)))
         acc = {
             "fit": acc["fit"] + jnp.where(ok & ~acc["down"], fit, 0.0),
             "up": acc["up"] + jnp.where(down, 0.0, 1.0),     # the log samples at which it is still up

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 
 import jax
 import jax.numpy as jnp
@@ -308,7 +309,8 @@ def robust_problem(wl_path, model, p: Perturbations, *, T: float, delta: float, 
             steer = steering.Schedule(c[0], c[1], None, p.command)     # its switch: the length's
         at = touch_thresholds(k[: n * R], len(legs(model)[0]), p.touch) if p.touch > 0 else None
         r = evaluate(model, controllers(family, model, g, nk, steer, at), delta=delta, chunk=chunk, var=var,
-                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, length=length, **sensing)
+                     fall_ends=p.fall_ends or p.fall_zero or p.fall_survival, length=length, **sensing,
+                     fall_tilt=math.radians(p.fall_tilt))
         turn = None if steer is None else \
             (length["turn_first"] * jnp.abs(c[0]) + length["turn_second"] * jnp.abs(c[1])) * length["per_time"]
         r = episode_scores(r, p, steered=steer is not None, turn=turn)

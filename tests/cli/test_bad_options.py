@@ -60,6 +60,8 @@ ROWS = [
     ("perturb-worst-minus", [*EVOLVE, *ROBUST, "worst=-1"], ["worst: expected a whole number >= 0", "'-1'"], []),
     ("perturb-worst-over", [*EVOLVE, *ROBUST, "replicas=2,worst=3"], ["perturbation worst", "0 (all) to 2, got 3"],
      []),
+    ("perturb-fall-tilt-10", [*EVOLVE, *ROBUST, "fall_tilt=10"],
+     ["perturbation fall_tilt", "from 20 to 60", "got 10"], []),
     ("perturb-flag-maybe", [*EVOLVE, *ROBUST, "fall_zero=maybe"], ["fall_zero: expected on or off", "'maybe'"], []),
     ("perturb-replicas-2.5", [*EVOLVE, *ROBUST, "replicas=2.5"], ["replicas: expected a whole number >= 1"], []),
     ("perturb-lift-negative", [*EVOLVE, *ROBUST, "lift=-1"], ["lift: expected a finite number >= 0", "'-1'"], []),

@@ -46,6 +46,7 @@ def _ctl(path, groups: str, w: float = 0.0) -> str:
     (["--ctl", "a.ctl", "--engine", "mujoco", "--mujoco-dt", "0"], "argument --mujoco-dt"),
     (["--ctl", "a.ctl", "--engine", "mujoco", "--video", "VIDEO"], "--video draws our simulator's walk"),
     (["--repertoire", "r.h5", "--engine", "mujoco"], "--engine: with --ctl only"),
+    (["--repertoire", "r.h5", "--plot", "w.png"], "--plot: with --ctl only"),
     (["--repertoire", "r.h5", "--mujoco-dt", "0.001"], "--mujoco-dt: with --ctl only"),
     (["--ctl", "HEXAPOD", "--engine", "mujoco"], "made for hexapod.wl, not quadruped.wl"),
     (["--ctl", "SPRINGS", "--engine", "both", "--pipeline", "exact"], "springs"),
@@ -82,6 +83,33 @@ def test_the_walks_in_mujoco_are_measured_and_written_as_ours(tmp_path, capsys):
                                                                      ("mujoco", "points:-1,1", 0.001)]
     assert w[0]["finished"] and len(w[0]["trajectory"]) == 1 and len(w[1]["trajectory"]) == 21   # 1 s at 20 Hz
     assert w[1]["command_mean_abs"] == pytest.approx(0.3, abs=1e-9)      # the waypoint 45 deg left: clipped to 0.3
+
+
+def test_the_plot_draws_each_walk_in_its_panel(tmp_path, capsys):
+    """``--plot``: a panel per path, the path's waypoints from the origin and the walk's CM path as written, a
+    cross where it fell and a dot where it finished."""
+    from cpgjax.plots.steering import walks_figure
+
+    ctl = _ctl(tmp_path / "turn.ctl", "pmtg:tilt+command+steer+bias", 1.0)
+    out, png = tmp_path / "w.json", tmp_path / "w.png"
+    assert main(["follow", MODEL, "--ctl", ctl, "--path", "line:0.1", "--path", "points:-1,1", "--time", "1",
+                 "--engine", "mujoco", "--mujoco-dt", "0.001", "--out", str(out), "--plot", str(png)]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == f"wrote {png}"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    walks = json.loads(out.read_text())
+    axes = walks_figure(walks).axes
+    assert [a.get_title().split("\n")[0] for a in axes] == ["line:0.1", "points:-1,1"]
+    for ax, w in zip(axes, walks, strict=True):
+        path, walk = ax.lines[0], ax.lines[1]
+        np.testing.assert_array_equal(path.get_xydata(), [[0.0, 0.0], *w["waypoint_xy"]])
+        np.testing.assert_array_equal(walk.get_xydata(), w["trajectory"])
+        assert walk.get_label() == "MuJoCo C"
+    assert axes[0].lines[2].get_marker() == "o" and len(axes[1].lines) == 2       # finished; ran out of time
+    assert "MuJoCo C: finished" in axes[0].get_title() and "did not finish" in axes[1].get_title()
+    fell = walks[1] | {"fell": 0.5}
+    assert walks_figure([fell]).axes[0].lines[2].get_marker() == "x"
+    with pytest.raises(ValueError, match="no walks"):
+        walks_figure([])
 
 
 def test_mujocos_contact_law_reaches_the_walk_and_ends_with_it(tmp_path, monkeypatch):

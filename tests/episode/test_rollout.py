@@ -1,5 +1,7 @@
 """Episodes (cpgjax/episode/rollout.py, batch.py) on the quadruped: standing, walking, batching, divergence, clock."""
 
+import math
+
 import jax
 import numpy as np
 import pytest
@@ -7,7 +9,7 @@ from runcases import TINY_TIME
 
 from cpgjax.episode.batch import simulate
 from cpgjax.episode.probes import Record
-from cpgjax.episode.rollout import episode_length, rollout
+from cpgjax.episode.rollout import FALL_TILT, episode_length, rollout
 from cpgjax.io.ctl import read_ctl
 from cpgjax.io.wl import load_model
 
@@ -109,6 +111,26 @@ def test_absurd_gains_are_flagged_too(quad):
     r = simulate(wild, np.full((8, 5), 0.5), time=1.0)
     assert j and r["diverged"]
     assert np.isfinite(r["fitness"])
+
+
+def test_fall_tilt_is_the_tilt_counted_as_a_fall():
+    """A box held still (no gravity, no contact) at 0, 50 and 70 degrees of pitch: past 60 degrees it has fallen
+    (the rollout's default), and with a margin of 40 degrees (the robust evaluation's ``fall_tilt``) at 50 too."""
+    import jax.numpy as jnp
+    from simcases import box
+
+    from cpgjax.sim.variation import Variation
+
+    m = box(z=1.0, gravity=0.0, contact=False)
+    var = Variation.nominal(m, 3)._replace(tilt=jnp.asarray([[0.0] * 3, [math.radians(a) for a in (0, 50, 70)]],
+                                                            jnp.float32))
+    coeffs = jnp.zeros((m.n_ctrl, m.n_coeff, 3))
+    down = {}
+    for tilt in (FALL_TILT, math.radians(40)):
+        r = jax.jit(lambda v, t=tilt: rollout(m, coeffs, time=0.1, var=v, fall_ends=True, fall_tilt=t))(var)
+        down[tilt] = np.asarray(r["down"]).tolist()
+        assert np.allclose(np.asarray(r["tilt"]), np.radians([0, 50, 70]), atol=1e-4)
+    assert down == {FALL_TILT: [False, False, True], math.radians(40): [False, True, True]}
 
 
 def test_the_clock_is_a_step_count_and_the_record_starts_at_t0():
