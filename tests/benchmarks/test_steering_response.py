@@ -92,3 +92,42 @@ def test_mujoco_walks_each_controller_under_each_constant_command_and_adds_its_r
     q = np.moveaxis(seen["qpos"][:, :, 3:7], 2, 0)                       # the root's quaternion, [4, robots, samples]
     turn = bench.turning_rates(np.moveaxis(q, 1, 2), 0.1)[:9]
     assert [c.split(",")[0] for c in lines[2].strip(" |").split(" | ")[2:]] == [f"{t:+.2f}" for t in turn]
+
+
+def test_inputs_table_shows_the_mean_tilt_and_contact_each_engine_read(bench, tmp_path, monkeypatch, capsys):
+    """``--inputs``: per controller, engine and command of SHOWN, the episode's mean of each tilt and contact
+    input, after the t = 0 sample: ours from the recorded observations (stood in for: input k of robot j reads
+    j + k / 100 at every sample but the first), MuJoCo C's from a real 0.1 s walk's observations."""
+    import cpgjax.crosscheck.engines as engines
+    import cpgjax.episode.batch
+
+    ctls = [_steering_ctl(tmp_path / "a.ctl"), _steering_ctl(tmp_path / "b.ctl")]
+    n = len(bench.COMMANDS)
+
+    def walk(model, c, *, time, record):
+        q = np.zeros((7, 4, len(model.body_names), 2 * n))
+        q[:, 0] = 1.0
+        obs = np.arange(2 * n)[None, None] + np.arange(10)[None, :, None] / 100 + np.zeros((7, 1, 1))
+        obs[0] = 99.0                                                       # t = 0: left out of the mean
+        return {"traj": {"q": q, "obs": obs}, "speed": np.zeros(2 * n), "fallen": np.zeros(2 * n, bool)}
+
+    real, seen = engines.mujoco_closed_run, {}
+
+    def run(model, c, **kw):
+        out = real(model, c, **kw)
+        seen["obs"] = out[3]
+        return out
+
+    monkeypatch.setattr(cpgjax.episode.batch, "simulate", walk)
+    monkeypatch.setattr(engines, "mujoco_closed_run", run)
+    assert bench.main([*ctls, "--time", "0.1", "--engine", "both", "--inputs"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    k = lines.index("")
+    assert lines[k + 1] == ("| controller | engine | command | roll | pitch | contact AR | contact AL | contact PR | "
+                            "contact PL |")
+    rows = [r.strip(" |").split(" | ") for r in lines[k + 3:]]
+    assert [(r[0], r[1], r[2]) for r in rows] == [(c, e, s) for c in ctls for e in ("ours", "MuJoCo C, 2 ms")
+                                                  for s in ("-0.4", "+0.0", "+0.4")]
+    assert rows[1][3:] == [f"{4 + i / 100:+.3f}" for i in range(6)]        # ours: robot 4 (command 0), inputs 0-5
+    mean = seen["obs"].mean(1)                                              # MuJoCo C: [robots, inputs]
+    assert rows[11][3:] == [f"{mean[n + 8, i]:+.3f}" for i in range(6)]    # controller b, +0.4: robot n + 8
