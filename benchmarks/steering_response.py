@@ -1,15 +1,15 @@
 """What a steering gait does with a constant command: its mean turning rate, speed and fall over one episode.
 
-Each `.ctl` (a closed-loop controller that reads the command) walks 10 s from rest on exact joints with a
-constant commanded turning rate of -0.4, -0.3, ..., +0.4 rad/s (a `steering.Schedule` whose two halves are
-equal), all in one batch; printed per command: the mean turning rate (the heading of the tracked body unwrapped
-at the log samples, its change over the episode), the speed along +y and whether it fell (body past 90 degrees).
-The tables of docs/results/steering.md, steering-recipes.md and steering-margin.md.  ``--engine mujoco`` (or ``both``) walks the same
-controllers under the same constant commands in MuJoCo C (``crosscheck.engines.mujoco_closed_run``, at
+Each `.ctl` (a closed-loop controller that reads the command) walks 10 s from rest on exact joints with a constant
+commanded turning rate of -0.4, -0.3, ..., +0.4 rad/s (a `steering.Schedule` whose two halves are equal), all in
+one batch; printed per command: the mean turning rate (the heading of the tracked body unwrapped at the log
+samples, its change over the episode), the speed along +y and whether it fell (body past 90 degrees).  The tables
+of docs/results/steering.md, steering-recipes.md and steering-margin.md.  ``--engine mujoco`` (or ``both``) walks
+the same controllers under the same constant commands in MuJoCo C (``crosscheck.engines.mujoco_closed_run``, at
 ``--mujoco-dt``, its controller held for the robot's 2 ms control period), measured alike from its root body's
-quaternions: how much of a command each engine turns.  ``--inputs`` adds a second table: per controller, engine
-and command (-0.4, 0, +0.4 rad/s), the episode's mean of each tilt and contact input the policy read (ours at the
-log samples, MuJoCo C's every control period): what each engine's turn feels like to the policy.
+quaternions: how much of a command each engine turns.  ``--inputs`` adds a second table: per controller, engine and
+command (-0.4, 0, +0.4 rad/s), the episode's mean of each tilt and contact input the policy read (ours at the log
+samples, MuJoCo C's every control period): what each engine's turn feels like to the policy.
 
     .venv/bin/python benchmarks/steering_response.py CTL [CTL ...] [--time 10] [--engine ours|mujoco|both] [--inputs]
 """
