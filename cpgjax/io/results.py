@@ -41,10 +41,13 @@ Layout (``format = "cpgjax-run"``, ``format_version = 1``)::
                                                   continues from
 
 Every dataset is chunked by generation with an unlimited first axis.  Writes of one
-generation are: resize, write the rows, set ``completed``, flush.  The writer opens the file
-only while it writes a chunk of generations and closes it between chunks, so a run killed
-while it computes leaves a closed, consistent file; a kill during a write loses at most the
-rows whose ``completed`` was not yet set.
+generation are: resize, write the rows, flush, set ``completed``, flush.  HDF5 writes its
+cached metadata to disk in an order of its own, so ``completed`` is only set once the rows are
+on disk: a ``completed`` read from disk never counts a row that is not there.  The writer opens
+the file only while it writes a chunk of generations and closes it between chunks, so a run
+killed while it computes leaves a closed, consistent file; a kill during a write loses at most
+the generation being written.  Readers and writers trust no more generations than every
+dataset holds (files written before the second flush may count one more).
 
 What a run records of its machine (``versions``, ``machines``): :mod:`cpgjax.io.machine`; a run read back
 (:class:`Run`): :mod:`cpgjax.io.run`.
@@ -198,7 +201,10 @@ class RunWriter:
 
     def __enter__(self) -> RunWriter:
         self.f = _open(self.path, "a")
-        _truncate(self.f, int(self.f.attrs["completed"]))
+        n = _consistent(self.f)
+        if n != int(self.f.attrs["completed"]):
+            self.f.attrs["completed"] = n
+        _truncate(self.f, n)
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -226,6 +232,7 @@ class RunWriter:
             ds = f[name]
             ds.resize(i + 1, axis=0)
             ds[i] = v
+        f.flush()  # the rows on disk before the count that names them (module docstring)
         f.attrs["completed"] = i + 1
         f.flush()
         return i
@@ -239,6 +246,12 @@ def _datasets(f: h5py.File) -> list[h5py.Dataset]:
     out: list[h5py.Dataset] = []
     f.visititems(lambda _, obj: out.append(obj) if isinstance(obj, h5py.Dataset) else None)
     return out
+
+
+def _consistent(f: h5py.File) -> int:
+    """The generations complete on disk: ``completed``, or fewer where a dataset holds fewer rows (a write
+    killed while HDF5 had put the count on disk before a dataset's new extent)."""
+    return min([int(f.attrs["completed"])] + [ds.shape[0] for ds in _datasets(f)])
 
 
 def _truncate(f: h5py.File, n: int) -> None:
@@ -349,10 +362,7 @@ def _read_run(p: str) -> Run:
     with _open(p) as f:
         _check(f, p)
         attrs = {k: _decode(v) for k, v in f.attrs.items()}
-        n = int(attrs["completed"])
-        # a writer sets `completed` after the rows; on disk, before its flush, a dataset may still be shorter
-        n = min([n] + [ds.shape[0] for ds in _datasets(f)])
-        attrs["completed"] = n
+        n = attrs["completed"] = _consistent(f)
 
         def rows(name: str) -> np.ndarray:
             try:
@@ -421,11 +431,11 @@ def read_resume_point(path: str | os.PathLike[str]) -> tuple[int, dict[str, np.n
     p = os.fspath(path)
     with _open(p) as f:
         _check(f, p)
-        n = int(f.attrs["completed"])
+        n = _consistent(f)
         if n == 0:
             return 0, {}, 0.0
         try:
             state = {k: np.asarray(f[f"state/{k}"][n - 1]) for k in f["state"]} if "state" in f else {}
             return n, state, float(f["wall_time"][n - 1])
-        except (OSError, KeyError, ValueError) as e:
+        except (OSError, KeyError, ValueError, IndexError) as e:
             raise _unreadable(p, f"generation {n - 1}", e, _last_readable(f, "wall_time", n)) from None

@@ -83,6 +83,28 @@ def test_rows_past_completed_are_ignored_and_dropped(tmp_path):
     assert run.completed == 2 and np.all(run.genomes[1] == 1)
 
 
+def test_a_count_ahead_of_a_dataset_is_cut_to_the_rows_every_dataset_holds(tmp_path):
+    """A kill while HDF5 wrote its metadata cache can leave `completed` on disk ahead of one dataset's extent (a
+    sweep killed in CI left completed 5 with 4 rows of state): readers, the resume point and the writer all take
+    the generations every dataset holds, and the run goes on from there."""
+    p = tmp_path / "run.h5"
+    make(p)
+    with RunWriter(p) as w:
+        for i in range(3):
+            w.append(row(i))
+    with h5py.File(p, "a") as f:
+        f["state/population"].resize(2, axis=0)
+    assert read_run(p).completed == 2
+    n, state, wall = read_resume_point(p)
+    assert n == 2 and wall == 1.0 and np.all(state["population"] == 2)
+    with RunWriter(p) as w:
+        assert w.completed == 2
+        w.append(row(2))
+    run = read_run(p)
+    assert run.completed == 3 and read_attrs(p)["completed"] == 3
+    assert run.genomes.shape[0] == run.state["population"].shape[0] == 3 and np.all(run.state["population"][2] == 3)
+
+
 def test_not_a_run_file(tmp_path):
     p = tmp_path / "x.h5"
     with h5py.File(p, "w") as f:
