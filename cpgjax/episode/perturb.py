@@ -74,6 +74,7 @@ SHIFT = (1.5, 2.0)      # m: half-ranges of the random spot in x and y
 PUSH_WINDOW = (0.2, 0.8)  # the shove's time, as a share of the episode: drawn uniformly in this window
 PUSH_MAX = 2.0          # m/s: the largest shove accepted
 FALL_TILT_MIN = 20.0    # degrees: the smallest tilt accepted as a fall (the walking gaits tilt 15-30 degrees)
+TURN_TOLERANCE_MAX = 2.0  # the widest turn_tolerance accepted (2: the score falls to 0 at twice the command's range)
 
 
 @dataclass(frozen=True)
@@ -103,6 +104,7 @@ class Perturbations:
     speed: float = 0.0         # m/s: the score credits the speed up to this (0: no cap; with or without command)
     turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
     overspeed: float = 0.0     # with speed: each m/s above the cap costs this many m/s of the score
+    turn_tolerance: float = 0.5  # with command: the turn error, a share of its range, at which the score reaches 0
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -144,6 +146,13 @@ class Perturbations:
             raise ValueError(f"perturbation turn_speed ({self.turn_speed:g}) is the speed credited at a full turn, "
                              f"the cap falling to it from speed at no turn: give speed too, at least as large "
                              f"(e.g. command=0.4,speed=0.6,turn_speed=0.2)")
+        if not (np.isfinite(self.turn_tolerance) and 0 < self.turn_tolerance <= TURN_TOLERANCE_MAX):
+            raise ValueError(f"perturbation turn_tolerance is the turn error, as a share of the command's range, at "
+                             f"which the steering score reaches 0: above 0 and at most {TURN_TOLERANCE_MAX:g}, "
+                             f"got {self.turn_tolerance:g}")
+        if self.turn_tolerance != 0.5 and self.command == 0:
+            raise ValueError(f"perturbation turn_tolerance ({self.turn_tolerance:g}) sets how the steering score "
+                             f"falls with the turn error: give command too (e.g. command=0.4,turn_tolerance=1)")
         if self.overspeed > 0 and self.speed == 0:
             raise ValueError(f"perturbation overspeed ({self.overspeed:g}) charges the speed above the cap: give "
                              f"speed too (e.g. command=0.3,speed=0.5,turn_speed=0.15,overspeed=1)")
@@ -210,6 +219,9 @@ MEANING = {
     "overspeed": "with speed: each m/s walked above the cap is taken off the score at this weight (0: "
                  "the cap only credits; e.g. 1 with turn_speed: a gait too fast for a tight turn scores less, "
                  "not the same)",
+    "turn_tolerance": "with command: the turn error, as a share of the command's range, at which the steering "
+                      "score falls to 0 (default 0.5; e.g. 1: a gait that turns half as fast as told still scores "
+                      "half, so that a walk that turns too little is led on to turn more)",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
     "fall_tilt": "the tilt counted as a fall in evolution, degrees, 20 to 60 (default 60, the judges' fall; e.g. 40: "
                  "a gait that rocks to 50 degrees and recovers here counts as fallen, a margin for another engine)",
@@ -222,7 +234,7 @@ MEANING = {
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
          "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0,
-         "push": 0.0, "overspeed": 0.0, "fall_tilt": 60.0}
+         "push": 0.0, "overspeed": 0.0, "fall_tilt": 60.0, "turn_tolerance": 0.5}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the

@@ -189,12 +189,14 @@ def capped(speed, cap, over: float = 0.0):
     return out - overcharge(speed, cap, over) if over > 0 else out
 
 
-def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0, over: float = 0.0):
-    """``heading_fitness x max(0, 1 - turn_error / (TOLERANCE limit))``, the heading fitness taken up to ``cap`` m/s
+def tracking_fitness(heading_fitness, turn_error, limit: float, cap: float = 0.0, over: float = 0.0,
+                     tolerance: float = TOLERANCE):
+    """``heading_fitness x max(0, 1 - turn_error / (tolerance limit))``, the heading fitness taken up to ``cap`` m/s
     when ``cap > 0`` (a number, or one per episode; see the module docstring); then, with ``over``, less ``over``
     times what it goes past the cap, whatever the turn error (charged after the product, so that a gait too fast
-    for its turn scores less when it ignores the command too, not 0)."""
-    follow = jnp.maximum(0.0, 1.0 - turn_error / (TOLERANCE * limit))
+    for its turn scores less when it ignores the command too, not 0).  ``tolerance``: the turn error, as a share of
+    the command's range, at which the factor reaches 0 (``--perturb turn_tolerance``)."""
+    follow = jnp.maximum(0.0, 1.0 - turn_error / (tolerance * limit))
     if isinstance(cap, (int, float)) and cap <= 0:
         return heading_fitness * follow
     score = jnp.minimum(heading_fitness, cap) * follow     # cap, an array: one per episode (perturb turn_speed)

@@ -226,7 +226,7 @@ def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) 
         if p.turn_speed > 0:
             cap = p.speed - (p.speed - p.turn_speed) * jnp.minimum(turn / p.command, 1.0)
         r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command, cap,
-                                                      p.overspeed))
+                                                      p.overspeed, p.turn_tolerance))
     elif p.speed > 0:
         r = dict(r, fitness=steering.capped(r["fitness"], p.speed, p.overspeed))
     if p.fall_zero:

@@ -62,6 +62,8 @@ ROWS = [
      []),
     ("perturb-fall-tilt-10", [*EVOLVE, *ROBUST, "fall_tilt=10"],
      ["perturbation fall_tilt", "from 20 to 60", "got 10"], []),
+    ("perturb-turn-tolerance-no-command", [*EVOLVE, *ROBUST, "turn_tolerance=1"],
+     ["perturbation turn_tolerance", "give command too"], []),
     ("perturb-flag-maybe", [*EVOLVE, *ROBUST, "fall_zero=maybe"], ["fall_zero: expected on or off", "'maybe'"], []),
     ("perturb-replicas-2.5", [*EVOLVE, *ROBUST, "replicas=2.5"], ["replicas: expected a whole number >= 1"], []),
     ("perturb-lift-negative", [*EVOLVE, *ROBUST, "lift=-1"], ["lift: expected a finite number >= 0", "'-1'"], []),

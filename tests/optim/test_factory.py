@@ -161,6 +161,27 @@ def test_overspeed_charges_the_speed_past_the_cap_with_a_command_or_without():
             Perturbations(**bad)
 
 
+def test_turn_tolerance_is_the_turn_error_at_which_the_steering_score_reaches_0():
+    """``turn_tolerance=T``: the steering score falls linearly to 0 at a turn error of T times the command's range
+    (0.5 by default, left out of the run file's record); a gait at 0.2 m/s that turns 0.2 rad/s short of a range
+    of 0.4 scores 0 at the default and half its speed at T = 1; outside (0, 2], or without a command, refused."""
+    import jax.numpy as jnp
+
+    from cpgjax.episode.perturb import Perturbations
+    from cpgjax.optim.factory import episode_scores
+
+    r = {"heading_fitness": jnp.full(3, 0.2), "turn_error": jnp.asarray([0.0, 0.2, 0.4])}
+    default = Perturbations(command=0.4)
+    np.testing.assert_allclose(episode_scores(r, default, steered=True)["fitness"], [0.2, 0.0, 0.0], atol=1e-7)
+    wide = Perturbations(command=0.4, turn_tolerance=1.0)
+    np.testing.assert_allclose(episode_scores(r, wide, steered=True)["fitness"], [0.2, 0.1, 0.0], atol=1e-7)
+    assert "turn_tolerance" not in default.to_dict() and wide.to_dict()["turn_tolerance"] == 1.0
+    for bad in ({"command": 0.4, "turn_tolerance": 0.0}, {"command": 0.4, "turn_tolerance": 3.0},
+                {"turn_tolerance": 1.0}):
+        with pytest.raises(ValueError, match="turn_tolerance"):
+            Perturbations(**bad)
+
+
 def test_worst_scores_a_controller_by_the_mean_of_its_worst_episodes():
     """``worst=K``: the fitness is the mean of the K lowest of a controller's episodes; the other metrics stay the
     means of all of them; 0 (the default, left out of the run file's record) is the mean of all."""
