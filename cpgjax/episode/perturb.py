@@ -105,6 +105,7 @@ class Perturbations:
     turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
     overspeed: float = 0.0     # with speed: each m/s above the cap costs this many m/s of the score
     turn_tolerance: float = 0.5  # with command: the turn error, a share of its range, at which the score reaches 0
+    per_cap: bool = False      # with command and speed: the score is over the episode's cap, up to 1 in any turn
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
     fall_survival: bool = False  # a fall scales the episode's fitness by the share of it before the fall
@@ -153,6 +154,9 @@ class Perturbations:
         if self.turn_tolerance != 0.5 and self.command == 0:
             raise ValueError(f"perturbation turn_tolerance ({self.turn_tolerance:g}) sets how the steering score "
                              f"falls with the turn error: give command too (e.g. command=0.4,turn_tolerance=1)")
+        if self.per_cap and (self.command == 0 or self.speed == 0):
+            raise ValueError("perturbation per_cap divides the steering score by the episode's speed cap: give "
+                             "command and speed too (e.g. command=0.4,speed=0.5,turn_speed=0.15,per_cap=on)")
         if self.overspeed > 0 and self.speed == 0:
             raise ValueError(f"perturbation overspeed ({self.overspeed:g}) charges the speed above the cap: give "
                              f"speed too (e.g. command=0.3,speed=0.5,turn_speed=0.15,overspeed=1)")
@@ -222,6 +226,8 @@ MEANING = {
     "turn_tolerance": "with command: the turn error, as a share of the command's range, at which the steering "
                       "score falls to 0 (default 0.5; e.g. 1: a gait that turns half as fast as told still scores "
                       "half, so that a walk that turns too little is led on to turn more)",
+    "per_cap": "with command and speed: when on, each episode's steering score is divided by its speed cap, so "
+               "that a tight turn at its low cap counts as much as a straight walk at the full one (each up to 1)",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
     "fall_tilt": "the tilt counted as a fall in evolution, degrees, 20 to 60 (default 60, the judges' fall; e.g. 40: "
                  "a gait that rocks to 50 degrees and recovers here counts as fallen, a margin for another engine)",
@@ -234,7 +240,8 @@ MEANING = {
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
          "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0,
-         "push": 0.0, "overspeed": 0.0, "fall_tilt": 60.0, "turn_tolerance": 0.5}
+         "push": 0.0, "overspeed": 0.0, "fall_tilt": 60.0, "turn_tolerance": 0.5,
+         "per_cap": False}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
 #: random spot of the field, ground friction +-30 %, body masses +-10 %, servo gains and torque limits +-20 %, the

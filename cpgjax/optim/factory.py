@@ -219,7 +219,8 @@ def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) 
     with ``p.turn_speed`` the cap falls linearly to it as ``turn`` [episodes], the episode's mean ``abs(command)``,
     rises to ``p.command``), not eq. 4.6's; without a command, eq. 4.6's fitness taken up to ``p.speed`` when it is
     set (a gait scored by how surely it reaches that speed, not by how far past it it goes); with ``p.overspeed``
-    the speed past the cap costs that many times itself (:func:`cpgjax.episode.steering.capped`); then a fall
+    the speed past the cap costs that many times itself (:func:`cpgjax.episode.steering.capped`); with
+    ``p.per_cap`` the steering score is divided by the episode's cap (each episode up to 1); then a fall
     forfeits the episode (``fall_zero``) or scales it by the share of it the robot stayed up (``fall_survival``)."""
     if steered:
         cap = p.speed
@@ -227,6 +228,8 @@ def episode_scores(r: dict, p: Perturbations, steered: bool = False, turn=None) 
             cap = p.speed - (p.speed - p.turn_speed) * jnp.minimum(turn / p.command, 1.0)
         r = dict(r, fitness=steering.tracking_fitness(r["heading_fitness"], r["turn_error"], p.command, cap,
                                                       p.overspeed, p.turn_tolerance))
+        if p.per_cap:
+            r = dict(r, fitness=r["fitness"] / cap)
     elif p.speed > 0:
         r = dict(r, fitness=steering.capped(r["fitness"], p.speed, p.overspeed))
     if p.fall_zero:

@@ -182,6 +182,25 @@ def test_turn_tolerance_is_the_turn_error_at_which_the_steering_score_reaches_0(
             Perturbations(**bad)
 
 
+def test_per_cap_scores_each_steering_episode_as_a_share_of_its_cap():
+    """``per_cap=on``: the steering score over the episode's speed cap, so that a turn at its cap scores 1 as a
+    straight walk at the full cap does (0.2 m/s in a full turn capped at 0.2, 0.6 m/s straight capped at 0.6, 0.3 m/s
+    in a half turn capped at 0.4: 1, 1, 0.75); refused without a command or a speed cap."""
+    import jax.numpy as jnp
+
+    from cpgjax.episode.perturb import Perturbations
+    from cpgjax.optim.factory import episode_scores
+
+    r = {"heading_fitness": jnp.asarray([0.2, 0.6, 0.3]), "turn_error": jnp.zeros(3)}
+    turn = jnp.asarray([0.4, 0.0, 0.2])
+    p = Perturbations(command=0.4, speed=0.6, turn_speed=0.2, per_cap=True)
+    np.testing.assert_allclose(episode_scores(r, p, steered=True, turn=turn)["fitness"], [1.0, 1.0, 0.75], rtol=1e-6)
+    assert "per_cap" not in Perturbations(command=0.4).to_dict() and p.to_dict()["per_cap"] is True
+    for bad in ({"command": 0.4, "per_cap": True}, {"speed": 0.5, "per_cap": True}):
+        with pytest.raises(ValueError, match="per_cap"):
+            Perturbations(**bad)
+
+
 def test_worst_scores_a_controller_by_the_mean_of_its_worst_episodes():
     """``worst=K``: the fitness is the mean of the K lowest of a controller's episodes; the other metrics stay the
     means of all of them; 0 (the default, left out of the run file's record) is the mean of all."""
