@@ -225,7 +225,7 @@ MEANING = {
                  "not the same)",
     "turn_tolerance": "with command: the turn error, as a share of the command's range, at which the steering "
                       "score falls to 0 (default 0.5; e.g. 1: a gait that turns half as fast as told still scores "
-                      "half, so that a walk that turns too little is led on to turn more)",
+                      "half)",
     "per_cap": "with command and speed: when on, each episode's steering score is divided by its speed cap, so "
                "that a tight turn at its low cap counts as much as a straight walk at the full one (each up to 1)",
     "fall_ends": "when on, a fall (the body tilted past 60 degrees) ends the episode's score",
