@@ -64,6 +64,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from cpgjax.episode.steering import TOLERANCE
 from cpgjax.sim.terrain import Terrain, make_terrain
 from cpgjax.sim.variation import Variation
 
@@ -104,7 +105,7 @@ class Perturbations:
     speed: float = 0.0         # m/s: the score credits the speed up to this (0: no cap; with or without command)
     turn_speed: float = 0.0    # m/s: with speed, the cap at a full turn (falling from speed at no turn; 0: none)
     overspeed: float = 0.0     # with speed: each m/s above the cap costs this many m/s of the score
-    turn_tolerance: float = 0.5  # with command: the turn error, a share of its range, at which the score reaches 0
+    turn_tolerance: float = TOLERANCE  # with command: the turn error, a share of its range, at which the score is 0
     per_cap: bool = False      # with command and speed: the score is over the episode's cap, up to 1 in any turn
     fall_ends: bool = True     # a robot's fitness stops at a fall (body tilted past 60 degrees)
     fall_zero: bool = False    # a fall forfeits the episode: its fitness is 0 (implies fall_ends)
@@ -151,7 +152,7 @@ class Perturbations:
             raise ValueError(f"perturbation turn_tolerance is the turn error, as a share of the command's range, at "
                              f"which the steering score reaches 0: above 0 and at most {TURN_TOLERANCE_MAX:g}, "
                              f"got {self.turn_tolerance:g}")
-        if self.turn_tolerance != 0.5 and self.command == 0:
+        if self.turn_tolerance != TOLERANCE and self.command == 0:
             raise ValueError(f"perturbation turn_tolerance ({self.turn_tolerance:g}) sets how the steering score "
                              f"falls with the turn error: give command too (e.g. command=0.4,turn_tolerance=1)")
         if self.per_cap and (self.command == 0 or self.speed == 0):
@@ -240,7 +241,7 @@ MEANING = {
 #: The ranges added later, and their value when off (:meth:`Perturbations.to_dict`).
 LATER = {"bristle_from": 0.0, "torque": 0.0, "stiffness": 0.0, "damping": 0.0, "relief": 0.0, "noise": 0.0,
          "latency": 0, "command": 0.0, "speed": 0.0, "turn_speed": 0.0, "touch": 0.0, "worst": 0, "texture": 0.0,
-         "push": 0.0, "overspeed": 0.0, "fall_tilt": 60.0, "turn_tolerance": 0.5,
+         "push": 0.0, "overspeed": 0.0, "fall_tilt": 60.0, "turn_tolerance": TOLERANCE,
          "per_cap": False}
 
 #: Named sets of ranges.  ``domain``: domain randomisation (docs/evolution.md): rough ground from flat to 4 cm at a
