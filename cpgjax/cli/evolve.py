@@ -55,10 +55,11 @@ def register(subparsers: Any) -> None:
         o.controller_option(p)
         p.add_argument("--free", default=None, metavar="GROUP+GROUP",
                        help="evolve only these genes, the others kept at the starting controller's values (the GA "
-                            "only): cpg, the CPG's coefficients, or a group the --controller's policy reads, its "
-                            "weights; e.g. --start models/quadruped-rough.ctl --controller "
-                            "pmtg:tilt+contact+command+steer+turn+bias:mirror --free command+steer+turn teaches a "
-                            "walker to turn and leaves its straight gait as it is (default: every gene evolves)")
+                            "and search's evolution strategies): cpg, the CPG's coefficients, or a group the "
+                            "--controller's policy reads, its weights; e.g. --start models/quadruped-rough.ctl "
+                            "--controller pmtg:tilt+contact+command+steer+turn+bias:mirror --free command+steer+turn "
+                            "teaches a walker to turn and leaves its straight gait as it is (default: every gene "
+                            "evolves)")
         o.seed_option(p, None, shown=d.seed)
         p.add_argument("--chunk", type=o.count, default=None,
                        help=f"generations compiled and run as one piece between writes to the run file; a kill loses "

@@ -36,7 +36,7 @@ import abc
 import dataclasses
 from collections.abc import Mapping, Sequence
 from functools import partial
-from typing import Any, Generic, Protocol, TypeVar
+from typing import Any, ClassVar, Generic, Protocol, TypeVar
 
 import jax
 import jax.numpy as jnp
@@ -65,6 +65,7 @@ class Algorithm(abc.ABC, Generic[S]):
     config: dict[str, Any]
     params: Any = ()
     resumable_changes: tuple[str, ...] = ("chunk",)
+    holds_genes: ClassVar[bool] = False     # honours ``Problem.held`` (``--free``): the GA, the evolution strategies
 
     @abc.abstractmethod
     def init(self, params: Any, key: jax.Array) -> S:
@@ -105,12 +106,12 @@ class Config(Protocol):
 
 def make_algorithm(problem: Problem, cfg: Config) -> Algorithm:
     """The :class:`Algorithm` of a configuration on ``problem`` (the GA, a baseline search, an evolution
-    strategy, MAP-Elites: each configuration class makes its own).  Only the GA keeps genes held
-    (``problem.held``); the others refuse such a problem."""
+    strategy, MAP-Elites: each configuration class makes its own).  Only the GA and the evolution strategies
+    keep genes held (``problem.held``); the others refuse such a problem."""
     algo = cfg.algorithm(problem)
-    if problem.held is not None and algo.kind != "ga":
-        raise ValueError(f"--free (genes held at the start's values) applies to the GA (cpgjax evolve), not to "
-                         f"{algo.kind}")
+    if problem.held is not None and not algo.holds_genes:
+        raise ValueError(f"--free (genes held at the start's values) applies to the GA (cpgjax evolve) and the "
+                         f"evolution strategies (cpgjax search --method cmaes, ...), not to {algo.kind}")
     return algo
 
 

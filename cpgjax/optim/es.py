@@ -17,7 +17,9 @@ snes       ``SNES``                         mean and per-gene std by natural gra
 ========== ================================ =====================================================
 
 Every strategy starts with its mean at the thesis's start genome (one 0.5 Hz sinusoid per joint,
-as the GA's population does) and step size ``sigma``.  ``evosax`` minimises: it is told
+as the GA's population does), or at ``--start``'s, and step size ``sigma``.  With genes held
+(``Problem.held``, ``--free``) the strategy searches the free genes only (its mean, step size and covariance
+are theirs) and every genome asked carries the start's values in the held ones.  ``evosax`` minimises: it is told
 ``-fitness``, with a diverged episode as NaN (its rank shaping puts NaN last).
 
 **The box.**  A strategy samples an unbounded Gaussian; the genome evaluated (and written to the
@@ -45,7 +47,7 @@ import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -95,12 +97,15 @@ class ESConfig:
 
     def algorithm(self, problem: Problem) -> EvolutionStrategy:
         """This strategy on ``problem``, its mean starting at the problem's start genome (in the box)."""
-        n, g = self.population, problem.n_genes
-        es, params = strategy(self.method, n, g, float(self.sigma), float(self.lr))
-        mean0 = np.clip(np.asarray(problem.base_genome, np.float32), problem.lower, problem.upper)
+        n = self.population
+        base = np.clip(np.asarray(problem.base_genome, np.float32), problem.lower, problem.upper)
+        free = None if problem.held is None else np.flatnonzero(~np.asarray(problem.held, bool))
+        es, params = strategy(self.method, n, problem.n_genes if free is None else len(free), float(self.sigma),
+                              float(self.lr))
         return EvolutionStrategy(kind=self.method, population=n, generations=self.generations,
                                  config=self.to_dict(), strategy=es, strategy_params=params,
-                                 mean0=jnp.asarray(mean0, jnp.float32), lower=problem.lower, upper=problem.upper)
+                                 mean0=jnp.asarray(base if free is None else base[free], jnp.float32),
+                                 lower=problem.lower, upper=problem.upper, base=base, free=free)
 
 
 @jax.tree_util.register_dataclass
@@ -185,11 +190,14 @@ class EvolutionStrategy(Algorithm[ESState]):
     empty; the "mutation rate" column holds NaN, as for the other baselines.
     """
 
+    holds_genes: ClassVar[bool] = True
     strategy: Any          # the evosax object (:func:`strategy`)
     strategy_params: Any   # its params
-    mean0: jax.Array       # [G] the start of the mean
+    mean0: jax.Array       # [F] the start of the mean: the start genome's free genes (all G of them by default)
     lower: float
     upper: float
+    base: np.ndarray | None = None   # [G] the start genome: the held genes' values
+    free: np.ndarray | None = None   # [F] int: the genes searched (``Problem.held``'s others); None: every gene
 
     def _ask(self, key: jax.Array, s) -> ESState:
         x, s = self.strategy.ask(key, s, self.strategy_params)
@@ -200,7 +208,11 @@ class EvolutionStrategy(Algorithm[ESState]):
         return self._ask(k_ask, self.strategy.init(k_init, self.mean0, self.strategy_params))
 
     def ask(self, params, state: ESState, key: jax.Array, gen) -> tuple[jax.Array, ESState]:
-        return reflect(state.samples, self.lower, self.upper), state
+        x = reflect(state.samples, self.lower, self.upper)
+        if self.free is None:
+            return x, state
+        full = jnp.broadcast_to(jnp.asarray(self.base, jnp.float32), (x.shape[0], len(self.base)))
+        return full.at[:, jnp.asarray(self.free)].set(x), state
 
     def tell(self, params, state: ESState, genomes: jax.Array, scores: Scores, key: jax.Array, gen) -> ESState:
         k_tell, k_ask = jax.random.split(key)

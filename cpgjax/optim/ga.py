@@ -57,7 +57,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import jax
 import jax.numpy as jnp
@@ -271,6 +271,7 @@ class GeneticAlgorithm(Algorithm[GAState]):
     one population size and initial spread share one compiled program.
     """
 
+    holds_genes: ClassVar[bool] = True
     base: np.ndarray      # [G] the start genome (Ch. 4.3)
     init_spread: float
     lower: float

@@ -43,6 +43,22 @@ def test_each_method_finds_the_optimum_of_a_shifted_sphere(method):
     assert np.all(np.abs(s["history"]["genomes"]) <= np.float32(0.8))
 
 
+def test_held_genes_stay_the_starts_bit_for_bit_and_the_strategy_searches_the_others():
+    """``Problem.held`` (``search --method cmaes --free``): every sample of every generation keeps the held genes at
+    the start's values, the strategy's state is the free genes' only, and the free ones reach the optimum."""
+    import dataclasses
+
+    held = np.arange(6) % 3 == 0
+    base = np.linspace(-0.3, 0.3, 6).astype(np.float32)
+    problem = dataclasses.replace(analytic_problem(PROBLEM), base_genome=base, held=held)
+    cfg = es.ESConfig(method="cmaes", **SETTINGS)
+    np.testing.assert_array_equal(cfg.algorithm(problem).mean0, base[~held])      # the free genes only
+    s = run_search(problem, cfg)
+    g = s["history"]["genomes"]
+    np.testing.assert_array_equal(g[..., held], np.broadcast_to(base[held], g[..., held].shape))
+    assert np.sqrt(np.mean((s["best_genome"][~held] - default_optimum(6)[~held]) ** 2)) < 0.07
+
+
 def test_reflect_mirrors_into_the_box():
     x = jnp.asarray([0.0, 0.9, -1.0, 2.5, -0.8, 0.8, 4.1])
     np.testing.assert_allclose(np.asarray(es.reflect(x, -0.8, 0.8)), [0.0, 0.7, -0.6, -0.7, -0.8, 0.8, 0.7],

@@ -228,7 +228,7 @@ def test_free_holds_every_gene_but_the_named_groups_at_the_starts():
     from cpgjax.episode.policy import parse_controller
     from cpgjax.io.wl import load_model
     from cpgjax.optim.algorithm import make_algorithm
-    from cpgjax.optim.es import ESConfig
+    from cpgjax.optim.baselines import SearchConfig
 
     fam = "pmtg:tilt+contact+command+steer+turn+bias:mirror"
     p = make_problem(WL, pipeline="exact", start="models/quadruped-rough.ctl", controller=fam,
@@ -242,4 +242,4 @@ def test_free_holds_every_gene_but_the_named_groups_at_the_starts():
     with pytest.raises(ValueError, match="every gene evolves"):
         make_problem(WL, free="cpg", time=0.3)
     with pytest.raises(ValueError, match="applies to the GA"):
-        make_algorithm(p, ESConfig())
+        make_algorithm(p, SearchConfig(method="amc"))
