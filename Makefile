@@ -84,4 +84,4 @@ figures: $(STAMP)
 	$(BIN)/cpgjax render models/worm.wl --ctl models/worm.ctl --time 6 --camera side --fps 10 --size 320x240 --out docs/figures/render-worm.gif && \
 	$(BIN)/cpgjax render models/car.wl --time 3.5 --camera track --fps 10 --size 240x180 --out docs/figures/render-car.gif && \
 	$(BIN)/cpgjax render models/quadruped.wl --ctl models/quadruped-trot.ctl --pipeline exact --terrain course:flat:0.3,stairs:0.04:0.3:3,bar:0.03,flat:1 --time 10 --camera fixed --fps 15 --size 320x240 --out docs/figures/render-stairs.gif && \
-	$(BIN)/cpgjax follow models/quadruped.wl --ctl models/quadruped-steer.ctl --path figure8:0.5 --video docs/figures/follow-steer.gif
+	$(BIN)/cpgjax follow models/quadruped.wl --ctl models/quadruped-walker.ctl --path figure8:0.5 --video docs/figures/follow-walker.gif

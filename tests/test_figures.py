@@ -85,14 +85,15 @@ def test_the_readme_shows_the_follow_gif_that_make_figures_draws_and_its_headers
     text = README.read_text()
     block = text[text.index("<!-- follow -->"):]
     command = re.search(r"^    (cpgjax follow .+)$", block, re.M)[1]
-    gif = ROOT / "docs/figures/follow-steer.gif"
-    assert "(docs/figures/follow-steer.gif)" in text and gif.stat().st_size > 10_000
+    argv = shlex.split(command)
+    ctl, path, video = (argv[argv.index(k) + 1] for k in ("--ctl", "--path", "--video"))
+    gif = ROOT / video
+    assert f"({video})" in text and gif.stat().st_size > 10_000
     make = MAKEFILE.read_text()
     assert command.replace("cpgjax ", "$(BIN)/cpgjax ", 1) in make[make.index("\nfigures:"):], (
-        "`make figures` does not draw docs/figures/follow-steer.gif with the README's command")
-    argv = shlex.split(command)
-    ctl, path = argv[argv.index("--ctl") + 1], argv[argv.index("--path") + 1]
+        f"`make figures` does not draw {video} with the README's command")
     header = (ROOT / ctl).read_text()
-    for engine, where in (("", "Here it "), (" --engine mujoco", "in MuJoCo C (`--engine mujoco`) it ")):
-        claim = re.search(rf"--path {re.escape(path)}{engine}  ->  (.+)$", header, re.M)[1]
+    mujoco = re.search(rf"--path {re.escape(path)} (--engine mujoco(?: --mujoco-dt \S+)?)  ->", header, re.M)[1]
+    for engine, where in (("", "Here it "), (f" {mujoco}", f"in MuJoCo C (`{mujoco}`) it ")):
+        claim = re.search(rf"--path {re.escape(path)}{re.escape(engine)}  ->  (.+)$", header, re.M)[1]
         assert f"{where}{claim}" in " ".join(block.split()), f"README.md does not quote {ctl}'s claim: {claim}"
