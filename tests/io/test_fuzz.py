@@ -29,6 +29,7 @@ CTL = {p.name: p.read_bytes() for p in sorted(MODELS.glob("*.ctl"))}
 # the controlled DOFs and harmonics of each controller's model, to read it as the CLI does
 CTL_SHAPE = {"hexapod.ctl": (12, 2), "quadruped-robust.ctl": (8, 2),
              "quadruped-trot.ctl": (8, 2), "quadruped-steer.ctl": (8, 2), "quadruped-rough.ctl": (8, 2),
+             "quadruped-walker.ctl": (8, 2),
              "worm.ctl": (4, 2)}
 
 ODD_NUMBERS = ["nan", "-nan", "inf", "-inf", "1e309", "-1e309", "1e999", "-0", "0", "-0.0", "+0", "1e300",
