@@ -90,7 +90,7 @@ def triangles(H, x0: float, y0: float, dx: float, dy: float, ix=None, iy=None) -
 
 
 def _f(v) -> str:
-    return " ".join(f"{float(x):.9g}" for x in np.ravel(v))
+    return " ".join(f"{x:.9g}" for x in np.ravel(np.asarray(v, float)).tolist())
 
 
 def hfield_geom(asset, world, grid, *, radius: float, attrs: dict) -> None:
@@ -118,30 +118,32 @@ def add_ground(asset, world, model, form: str, grid, *, radius: float, attrs: di
     xl, xh, yl, yh = walk_region(model)
     ix, iy = _window(nx, x0, dx, xl, xh), _window(ny, y0, dy, yl, yh)
     if check_form(form) == "mesh":
-        for k, tri in enumerate(triangles(H, x0, y0, dx, dy, ix, iy)):
-            base = tri.copy()
-            base[:, 2] = tri[:, 2].min() - PIECE_DEPTH
-            ET.SubElement(asset, "mesh", name=f"ground{k}", vertex=_f(np.concatenate([tri, base]) - [0, 0, radius]))
+        tri = triangles(H, x0, y0, dx, dy, ix, iy)
+        base = tri.copy()
+        base[..., 2] = tri[..., 2].min(-1, keepdims=True) - PIECE_DEPTH
+        pieces = np.concatenate([tri, base], 1) - [0, 0, radius]          # [n, 6, 3]
+        for k, piece in enumerate(pieces):
+            ET.SubElement(asset, "mesh", name=f"ground{k}", vertex=_f(piece))
             ET.SubElement(world, "geom", name=f"ground_m{k}", type="mesh", mesh=f"ground{k}", **attrs)
     else:
         sub = H[iy[0]:iy[1] + 1, ix[0]:ix[1] + 1]
         h = (sub[:-1, :-1] + sub[:-1, 1:] + sub[1:, :-1] + sub[1:, 1:]) / 4
         sx = (sub[:-1, 1:] + sub[1:, 1:] - sub[:-1, :-1] - sub[1:, :-1]) / (2 * dx)   # mean slopes of each cell
         sy = (sub[1:, :-1] + sub[1:, 1:] - sub[:-1, :-1] - sub[:-1, 1:]) / (2 * dy)
-        k = 0
-        for j in range(h.shape[0]):
-            for i in range(h.shape[1]):
-                ex = np.array([1.0, 0.0, sx[j, i]])
-                n = np.array([-sx[j, i], -sy[j, i], 1.0])
-                ex, n = ex / np.linalg.norm(ex), n / np.linalg.norm(n)
-                ey = np.cross(n, ex)
-                # half-sizes: the top face covers the cell's footprint (ey leans along x by ey[0] / ey[1])
-                hx, hy = (dx + abs(ey[0] / ey[1]) * dy) / 2 / ex[0], dy / 2 / ey[1]
-                c = np.array([x0 + dx * (ix[0] + i + 0.5), y0 + dy * (iy[0] + j + 0.5), h[j, i] - radius])
-                ET.SubElement(world, "geom", name=f"ground_b{k}", type="box",
-                              size=f"{hx:.9g} {hy:.9g} {PIECE_DEPTH / 2:.9g}", pos=_f(c - n * PIECE_DEPTH / 2),
-                              xyaxes=_f([*ex, *ey]), **attrs)
-                k += 1
+        # each cell's frame, all cells at once: x along the cell's x slope, z its normal, y = z x x
+        ex = np.stack([np.ones_like(sx), np.zeros_like(sx), sx], -1)
+        n = np.stack([-sx, -sy, np.ones_like(sx)], -1)
+        ex, n = ex / np.linalg.norm(ex, axis=-1, keepdims=True), n / np.linalg.norm(n, axis=-1, keepdims=True)
+        ey = np.cross(n, ex)
+        # half-sizes: the top face covers the cell's footprint (ey leans along x by ey[0] / ey[1])
+        hx, hy = (dx + np.abs(ey[..., 0] / ey[..., 1]) * dy) / 2 / ex[..., 0], dy / 2 / ey[..., 1]
+        jj, ii = np.meshgrid(np.arange(h.shape[0]), np.arange(h.shape[1]), indexing="ij")
+        c = np.stack([x0 + dx * (ix[0] + ii + 0.5), y0 + dy * (iy[0] + jj + 0.5), h - radius], -1)
+        pos, axes = c - n * PIECE_DEPTH / 2, np.concatenate([ex, ey], -1)
+        for k, (j, i) in enumerate(np.ndindex(h.shape)):
+            ET.SubElement(world, "geom", name=f"ground_b{k}", type="box",
+                          size=f"{hx[j, i]:.9g} {hy[j, i]:.9g} {PIECE_DEPTH / 2:.9g}", pos=_f(pos[j, i]),
+                          xyaxes=_f(axes[j, i]), **attrs)
     pit = H.copy()
     inner = pit[iy[0] + 1:iy[1], ix[0] + 1:ix[1]]
     inner[...] = H.min() - PIT
