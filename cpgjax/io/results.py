@@ -198,17 +198,20 @@ class RunWriter:
     def __init__(self, path: str | os.PathLike[str]):
         self.path = os.fspath(path)
         self.f: h5py.File | None = None
+        self.ds: dict[str, h5py.Dataset] = {}     # every dataset by its path, looked up once per open
 
     def __enter__(self) -> RunWriter:
         self.f = _open(self.path, "a")
-        n = _consistent(self.f)
+        self.ds = _datasets(self.f)
+        n = _consistent(self.f, self.ds)
         if n != int(self.f.attrs["completed"]):
             self.f.attrs["completed"] = n
-        _truncate(self.f, n)
+        _truncate(self.ds, n)
         return self
 
     def __exit__(self, *exc: object) -> None:
         assert self.f is not None
+        self.ds = {}
         self.f.close()
         self.f = None
 
@@ -226,10 +229,10 @@ class RunWriter:
             "genomes": row.genomes, "fitness": row.fitness, "diverged": row.diverged,
             "n_diverged": np.int32(np.sum(row.diverged)), "mutation_rate": np.float32(row.mutation_rate),
             "wall_time": np.float64(row.wall_time)}
-        values.update({f"metrics/{k}": v for k, v in row.metrics.items() if f"metrics/{k}" in f})
+        values.update({f"metrics/{k}": v for k, v in row.metrics.items() if f"metrics/{k}" in self.ds})
         values.update({f"state/{k}": v for k, v in row.state.items()})
         for name, v in values.items():
-            ds = f[name]
+            ds = self.ds[name]
             ds.resize(i + 1, axis=0)
             ds[i] = v
         f.flush()  # the rows on disk before the count that names them (module docstring)
@@ -242,22 +245,25 @@ class RunWriter:
         self.f.attrs[name] = _attr_value(value)
 
 
-def _datasets(f: h5py.File) -> list[h5py.Dataset]:
-    out: list[h5py.Dataset] = []
-    f.visititems(lambda _, obj: out.append(obj) if isinstance(obj, h5py.Dataset) else None)
+def _datasets(f: h5py.File) -> dict[str, h5py.Dataset]:
+    """Every dataset of the file by its path (``genomes``, ``metrics/speed``, ...)."""
+    out: dict[str, h5py.Dataset] = {}
+    f.visititems(lambda name, obj: out.__setitem__(name, obj) if isinstance(obj, h5py.Dataset) else None)
     return out
 
 
-def _consistent(f: h5py.File) -> int:
+def _consistent(f: h5py.File, ds: Mapping[str, h5py.Dataset] | None = None) -> int:
     """The generations complete on disk: ``completed``, or fewer where a dataset holds fewer rows (a write
-    killed while HDF5 had put the count on disk before a dataset's new extent)."""
-    return min([int(f.attrs["completed"])] + [ds.shape[0] for ds in _datasets(f)])
+    killed while HDF5 had put the count on disk before a dataset's new extent).  ``ds``: the file's datasets
+    (:func:`_datasets`), where the caller has them."""
+    ds = _datasets(f) if ds is None else ds
+    return min([int(f.attrs["completed"])] + [d.shape[0] for d in ds.values()])
 
 
-def _truncate(f: h5py.File, n: int) -> None:
-    for ds in _datasets(f):
-        if ds.shape[0] > n:
-            ds.resize(n, axis=0)
+def _truncate(ds: Mapping[str, h5py.Dataset], n: int) -> None:
+    for d in ds.values():
+        if d.shape[0] > n:
+            d.resize(n, axis=0)
 
 
 def _decode(v: Any) -> Any:
