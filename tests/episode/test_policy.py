@@ -82,16 +82,25 @@ def test_a_policy_of_zeros_is_the_open_loop_cpg_bit_for_bit_on_exact_joints():
     _same_bits(load_model(QUAD, pipeline="exact"), 16)
 
 
+# the inputs, latency, batch width and recording of the two tests below: one compiled program for each touch layout
+LATENT = pol.Family(inputs=("tilt", "rates", "contact", "phase", "bias"))
+
+
+def _recorded(m, c):
+    """``c`` (16 robots, robots first) for 0.05 s, recorded every step, with a latency of one step: its controller
+    (batch last) and its trajectory (batch last)."""
+    c = jax.tree.map(lambda a: np.moveaxis(a, 0, -1), c)
+    r = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, probes=(Record(),), latency=1))(c)
+    return c, jax.tree.map(np.asarray, r["traj"])
+
+
 def test_latency_delays_the_action_by_exactly_one_step():
     """With latency, the action of step n is the policy of the observation of step n - 1 (recorded every step)."""
     m = load_model(QUAD)
-    fam = pol.Family(inputs=("tilt", "rates", "contact", "phase", "bias"))
     rng = np.random.default_rng(1)
-    g = np.concatenate([_trots(m, 1).reshape(1, -1), rng.uniform(-0.8, 0.8, (1, fam.n_weights(m)))], 1)
-    c = pol.from_genomes(fam, m, np.repeat(g, 16, 0).astype(np.float32))
-    c = jax.tree.map(lambda a: np.moveaxis(a, 0, -1), c)
-    r = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, probes=(Record(),), latency=1))(c)
-    tr = jax.tree.map(lambda a: np.asarray(a)[..., 0], r["traj"])
+    g = np.concatenate([_trots(m, 1).reshape(1, -1), rng.uniform(-0.8, 0.8, (1, LATENT.n_weights(m)))], 1)
+    c, r = _recorded(m, pol.from_genomes(LATENT, m, np.repeat(g, 16, 0).astype(np.float32)))
+    tr = jax.tree.map(lambda a: a[..., 0], r)
     obs = tr["obs"]                                       # [S, in]: sample k's observation (of step k, t = 0 twice)
     W = np.asarray(c.weights)[..., 0].astype(np.float64)
     u = obs.astype(np.float64) @ W.T                      # the policy of each observation
@@ -106,21 +115,21 @@ def test_latency_delays_the_action_by_exactly_one_step():
 
 
 def test_the_touch_sensors_read_from_each_controllers_own_threshold_in_the_episode():
-    """``ClosedLoop.touch`` reaches the sensors in the scan: the recorded contact readings of 4 robots, one
-    controller, thresholds of 10 cm above the ground (every foot down: the trot lifts its feet less), 1 cm in (none:
-    a foot carrying its share of the robot sinks 0.3 mm), 0 and none given (the same)."""
+    """``ClosedLoop.touch`` reaches the sensors in the scan: the recorded contact readings of 16 robots, one
+    controller (zero weights: the trot), thresholds of 10 cm above the ground (every foot down: the trot lifts its feet
+    less), 1 cm in (none: a foot carrying its share of the robot sinks 0.3 mm), 0 and none given (the same).  The
+    latency test's program (with none given) and one more (with thresholds)."""
     m = load_model(QUAD)
-    fam = pol.Family(inputs=("contact", "bias"))
-    g = np.concatenate([_trots(m, 1).reshape(1, -1), np.zeros((1, fam.n_weights(m)))], 1)
-    at = np.repeat(np.float32([[-0.1], [0.01], [0.0], [0.0]]), 4, 1)        # [robots, legs]
-    c = pol.from_genomes(fam, m, np.repeat(g, 4, 0).astype(np.float32), touch=at)
-    run = jax.jit(lambda cc: rollout(m, cc, time=0.05, log_rate=1.0 / m.dt, probes=(Record(),))["traj"]["obs"])
-    obs = np.asarray(run(jax.tree.map(lambda a: np.moveaxis(a, 0, -1), c)))[:, :4]       # [S, legs, robots]
-    assert (obs[..., 0] == 1).all() and (obs[..., 1] == 0).all()
+    g = np.concatenate([_trots(m, 1).reshape(1, -1), np.zeros((1, LATENT.n_weights(m)))], 1)
+    at = np.repeat(np.float32([[-0.1], [0.01], [0.0], [0.0]]), 4, 1)        # [4 thresholds, legs]
+    c = pol.from_genomes(LATENT, m, np.repeat(g, 16, 0).astype(np.float32), touch=np.tile(at, (4, 1)))
+    contact = slice(*np.cumsum([0] + [n for _, n in LATENT.input_sizes(m)])[[2, 3]])
+    obs = _recorded(m, c)[1]["obs"][:, contact]                              # [S, legs, robots]
+    assert (obs[..., 0::4] == 1).all() and (obs[..., 1::4] == 0).all()
     assert 0 < obs[..., 2].mean() < 1                                       # the trot lifts its feet in turn
-    none = c.replace(touch=None)
-    np.testing.assert_array_equal(np.asarray(run(jax.tree.map(lambda a: np.moveaxis(a, 0, -1), none)))[:, :4, 2],
-                                  obs[..., 2])
+    np.testing.assert_array_equal(obs[..., 3::4], np.repeat(obs[..., 2:3], 4, -1))
+    none = _recorded(m, c.replace(touch=None))[1]["obs"][:, contact]
+    np.testing.assert_array_equal(none, np.repeat(obs[..., 2:3], 16, -1))
 
 
 def test_the_genome_is_the_cpg_then_the_policy_genes_scaled():
