@@ -9,9 +9,12 @@ from simcases import rig
 from cpgjax.episode.perturb import LATER, PRESETS, Perturbations, commands, draw
 
 
+DOMAIN = {"preset": "domain", "mass": 0.08}          # a key beside the preset wins
+
+
 def test_the_domain_preset_draws_every_range_within_its_bounds_and_spans_it():
     m = rig()               # the test rig (1 servo, 2 bodies): the same code, compiled in 2/3 the quadruped's time
-    p = Perturbations.from_settings({"preset": "domain", "mass": 0.08})        # a key beside the preset wins
+    p = Perturbations.from_settings(DOMAIN)
     assert p.roughness == 0.04 and p.relief == 1.0 and p.mass == 0.08 and p.fall_survival
     keys = jax.random.split(jax.random.key(5), 512)
     var, offsets = jax.tree.map(np.asarray, jax.jit(lambda k: draw(m, p, k, 40))(keys))
@@ -46,9 +49,10 @@ def test_a_shove_is_drawn_horizontal_in_its_range_at_a_time_in_its_window_leavin
     m = rig()
     keys = jax.random.split(jax.random.key(3), 512)
     fn = jax.jit(lambda k, p: draw(m, p, k, 40), static_argnums=1)
-    base = Perturbations.from_settings({"preset": "domain"})
+    # the settings of the test above, its program (the draws are constants of the program; the keys are data)
+    base = Perturbations.from_settings(DOMAIN)
     var, off = jax.tree.map(np.asarray, fn(keys, base))
-    pushed, off2 = jax.tree.map(np.asarray, fn(keys, Perturbations.from_settings({"preset": "domain", "push": 0.3})))
+    pushed, off2 = jax.tree.map(np.asarray, fn(keys, Perturbations.from_settings({**DOMAIN, "push": 0.3})))
     assert pushed.push.shape == (3, 512) and np.all(pushed.push[2] == 0)
     assert np.abs(pushed.push[:2]).max() <= 0.3 and np.abs(pushed.push[:2]).min(axis=1).max() < 0.01
     assert pushed.push[:2].min() < -0.29 and pushed.push[:2].max() > 0.29
