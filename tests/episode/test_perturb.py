@@ -8,7 +8,6 @@ from simcases import rig
 
 from cpgjax.episode.perturb import LATER, PRESETS, Perturbations, commands, draw
 
-
 DOMAIN = {"preset": "domain", "mass": 0.08}          # a key beside the preset wins
 
 
