@@ -82,7 +82,7 @@ def test_a_policy_of_zeros_is_the_open_loop_cpg_bit_for_bit_on_exact_joints():
     _same_bits(load_model(QUAD, pipeline="exact"), 16)
 
 
-# the inputs, latency, batch width and recording of the two tests below: one compiled program for each touch layout
+# the inputs, latency, batch width, thresholds' layout and recording of the two tests below: one compiled program
 LATENT = pol.Family(inputs=("tilt", "rates", "contact", "phase", "bias"))
 
 
@@ -99,7 +99,8 @@ def test_latency_delays_the_action_by_exactly_one_step():
     m = load_model(QUAD)
     rng = np.random.default_rng(1)
     g = np.concatenate([_trots(m, 1).reshape(1, -1), rng.uniform(-0.8, 0.8, (1, LATENT.n_weights(m)))], 1)
-    c, r = _recorded(m, pol.from_genomes(LATENT, m, np.repeat(g, 16, 0).astype(np.float32)))
+    zero = np.zeros((16, 4), np.float32)      # the sensors' own threshold, given: the touch test's program
+    c, r = _recorded(m, pol.from_genomes(LATENT, m, np.repeat(g, 16, 0).astype(np.float32), touch=zero))
     tr = jax.tree.map(lambda a: a[..., 0], r)
     obs = tr["obs"]                                       # [S, in]: sample k's observation (of step k, t = 0 twice)
     W = np.asarray(c.weights)[..., 0].astype(np.float64)
@@ -117,8 +118,8 @@ def test_latency_delays_the_action_by_exactly_one_step():
 def test_the_touch_sensors_read_from_each_controllers_own_threshold_in_the_episode():
     """``ClosedLoop.touch`` reaches the sensors in the scan: the recorded contact readings of 16 robots, one
     controller (zero weights: the trot), thresholds of 10 cm above the ground (every foot down: the trot lifts its feet
-    less), 1 cm in (none: a foot carrying its share of the robot sinks 0.3 mm), 0 and none given (the same).  The
-    latency test's program (with none given) and one more (with thresholds)."""
+    less), 1 cm in (none: a foot carrying its share of the robot sinks 0.3 mm) and 0 (the sensors' own: with none
+    given they read from 0, episode/test_sensors.py).  The latency test's program."""
     m = load_model(QUAD)
     g = np.concatenate([_trots(m, 1).reshape(1, -1), np.zeros((1, LATENT.n_weights(m)))], 1)
     at = np.repeat(np.float32([[-0.1], [0.01], [0.0], [0.0]]), 4, 1)        # [4 thresholds, legs]
@@ -127,9 +128,8 @@ def test_the_touch_sensors_read_from_each_controllers_own_threshold_in_the_episo
     obs = _recorded(m, c)[1]["obs"][:, contact]                              # [S, legs, robots]
     assert (obs[..., 0::4] == 1).all() and (obs[..., 1::4] == 0).all()
     assert 0 < obs[..., 2].mean() < 1                                       # the trot lifts its feet in turn
+    np.testing.assert_array_equal(obs[..., 2::4], np.repeat(obs[..., 2:3], 4, -1))     # one controller: one episode
     np.testing.assert_array_equal(obs[..., 3::4], np.repeat(obs[..., 2:3], 4, -1))
-    none = _recorded(m, c.replace(touch=None))[1]["obs"][:, contact]
-    np.testing.assert_array_equal(none, np.repeat(obs[..., 2:3], 16, -1))
 
 
 def test_the_genome_is_the_cpg_then_the_policy_genes_scaled():
