@@ -187,9 +187,9 @@ def test_resume_after_interruption_equals_uninterrupted(quad_sweep, tmp_path):
 SMALL = TINY_SWEEP
 
 
-def test_mismatching_settings_are_refused(tmp_path):
+def test_mismatching_settings_are_refused(tiny_sweep, tmp_path):
     out = str(tmp_path / "s")
-    assert cli.main([*SMALL, "--generations", str(GENS), "--out", out]) == 0
+    shutil.copytree(tiny_sweep, out)        # the tiny sweep's files: made by this command (SMALL, GENS)
     run = os.path.join(out, "ga_n6_mu0.2_g0_p0_xoff", "s0.h5")
     with h5py.File(run, "a") as f:              # pretend it was made with another init spread
         cfg = json.loads(f.attrs["config"])
