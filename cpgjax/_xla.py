@@ -3,9 +3,12 @@
 Why: on CPU, XLA runs one program mostly on one core; the fastest way we measured to
 use every core for a batch of independent robots is one *host device* per core and
 the batch split across them (`cpgjax.episode.batch`).  That needs
-``--xla_force_host_platform_device_count`` set before ``import jax``.  This module is
-imported first by ``cpgjax/__init__.py``; if JAX was already imported (e.g. by a
-notebook), the flag cannot take effect and cpgjax falls back to the devices it has.
+``--xla_force_host_platform_device_count`` set before JAX makes its CPU client.  This module is
+imported first by ``cpgjax/__init__.py``.  XLA reads its flags when JAX first runs something, not when it is
+imported, so a notebook's ``import jax`` before ``import cpgjax`` is fine: the settings below still take effect
+(the compilation cache through ``jax.config``).  If JAX already ran something, they cannot: cpgjax then warns,
+once, and goes on with the devices JAX has (without the second setting, a large batch's results may differ in
+their last bits from the command line's: restart, and import cpgjax first).
 One device per core the process may run on (:func:`default_devices`: a Slurm job's cpuset of 4 cores on a node of
 64 makes 4, not 64), at least two on a machine of two cores or more.
 Set ``CPGJAX_DEVICES=1`` to opt out, or to a number to choose the device count.  A process started by a cpgjax
@@ -64,8 +67,7 @@ import sys
 
 
 def configure() -> None:
-    if "jax" in sys.modules:
-        return
+    late = "jax" in sys.modules         # imported before cpgjax: the flags still count unless JAX already ran
     n = os.environ.get("CPGJAX_DEVICES")
     count = int(n) if n else default_devices()
     flags, ours = device_flags(os.environ.get("XLA_FLAGS", ""), count, n is not None,
@@ -85,6 +87,32 @@ def configure() -> None:
             os.environ["JAX_COMPILATION_CACHE_DIR"] = d
             if importlib.util.find_spec("filelock") is not None:    # JAX needs it for a size limit (pinned)
                 os.environ.setdefault("JAX_COMPILATION_CACHE_MAX_SIZE", str(CACHE_MAX_BYTES))
+            if late:                    # JAX read its environment when it was imported: its options instead
+                import jax
+
+                jax.config.update("jax_compilation_cache_dir", d)
+                size = os.environ.get("JAX_COMPILATION_CACHE_MAX_SIZE")
+                if size is not None:
+                    jax.config.update("jax_compilation_cache_max_size", int(size))
+    if late and forced:
+        late_warning(int(forced[-1]))
+
+
+def late_warning(devices: int) -> str | None:
+    """After a late :func:`configure` (JAX imported first): a warning, and its text, when JAX's CPU client was made
+    before XLA's flags were set (it has other than ``devices`` host devices); else None."""
+    import warnings
+
+    import jax
+
+    have = len(jax.devices("cpu"))
+    if have == devices:
+        return None
+    text = (f"JAX ran before cpgjax was imported, so cpgjax's XLA settings did not take effect ({have} host "
+            f"device(s), not {devices}): a large batch's results may differ in their last bits from the command "
+            "line's; restart and import cpgjax before running anything on JAX (docs/reproducibility.md)")
+    warnings.warn(text, RuntimeWarning, stacklevel=3)
+    return text
 
 
 def default_devices(cores: int | None = None, usable: int | None = None) -> int:

@@ -140,3 +140,21 @@ def test_one_host_device_runs_with_one_pool_thread():
 
     assert run() == (1, 1)
     assert run(PJRT_NPROC="3") == (1, 3)
+
+
+def test_jax_imported_first_still_gets_cpgjaxs_settings_and_jax_run_first_a_warning():
+    """A notebook's ``import jax`` before ``import cpgjax``: XLA reads its flags when JAX first runs something, so
+    cpgjax's device count and flags still take effect, without a warning.  JAX run before: the flags come too late,
+    and cpgjax says so in one warning.  Two processes, side by side."""
+    env = {**_xla.child_environ(), "CPGJAX_DEVICES": "2"}
+    late = ("import os, jax\n{}import cpgjax\n"
+            "print(len(jax.devices('cpu')), 'ynn_fusion_type=' in os.environ['XLA_FLAGS'])")
+    procs = [subprocess.Popen([sys.executable, "-W", "default", "-c", late.format(ran)], env=env, text=True,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+             for ran in ("", "jax.numpy.ones(1).block_until_ready()\n")]
+    (imported, err1), (ran, err2) = (p.communicate(timeout=120) for p in procs)
+    assert [p.returncode for p in procs] == [0, 0], err1 + err2
+    assert imported.split() == ["2", "True"] and "RuntimeWarning" not in err1, err1
+    assert ran.split()[0] == "1"
+    warning = [line for line in err2.splitlines() if "RuntimeWarning" in line]
+    assert len(warning) == 1 and "JAX ran before cpgjax was imported" in warning[0] and "not 2" in warning[0], err2
