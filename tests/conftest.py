@@ -1,6 +1,6 @@
 """Shared test set-up: the helper modules beside this file (simcases, runcases) are importable from every folder,
 and cpgjax is imported before any test module imports jax, so that every test runs on one host device per core
-whichever file pytest collects first (with JAX run first, cpgjax could not set them: cpgjax/_xla.py).
+whichever file pytest collects first (had JAX run anything first, it could not make them: cpgjax/_xla.py).
 
 Compiled programs are shared across tests: JAX's persistent compilation cache is pointed at a folder made for
 this run and removed at its end (never reused by another run, so no stale program is ever loaded). Many tests
