@@ -95,10 +95,10 @@ def configure() -> None:
                 if size is not None:
                     jax.config.update("jax_compilation_cache_max_size", int(size))
     if late and forced:
-        late_warning(int(forced[-1]))
+        _late_warning(int(forced[-1]))
 
 
-def late_warning(devices: int) -> str | None:
+def _late_warning(devices: int) -> str | None:
     """After a late :func:`configure` (JAX imported first): a warning, and its text, when JAX's CPU client was made
     before XLA's flags were set (it has other than ``devices`` host devices); else None."""
     import warnings
@@ -198,7 +198,7 @@ def cold_compiles() -> None:
     _OURS = None
 
 
-# --- Fourth: options for the programs of one physics pipeline (jaxlib 0.10.x: field numbers and JAX internals) ---
+# --- Third: the persistent compilation cache's folder, and the CPU that names it ------------------------------------
 
 def compile_cache_dir(environ=None) -> str | None:
     """The persistent compilation cache's folder for this CPU, made if missing; None when turned off
