@@ -75,6 +75,10 @@ def test_a_touch_sensor_reads_from_the_depth_it_is_given(quad):
     np.testing.assert_array_equal(np.asarray(read(s, jnp.zeros_like(at))), np.asarray(sensors.touch(quad, s)))
     standing = initial_state(quad, 1)
     np.testing.assert_array_equal(np.asarray(read(standing, at))[:, 0], [1.0, 1.0, 0.0, 1.0])
+    # the observation a closed loop reads (its ``touch`` None, as ClosedLoop's default): the sensors' own 0
+    observe = jax.jit(lambda s, at: sensors.observe(quad, ("contact", "stance"), s, None, None, None, at))
+    for state in (s, standing):
+        np.testing.assert_array_equal(np.asarray(observe(state, None)), np.asarray(observe(state, jnp.zeros_like(at))))
 
 
 def test_a_body_turned_by_known_angles_reads_them_as_roll_and_pitch(quad):
