@@ -100,27 +100,19 @@ def test_the_controller_is_held_for_the_robots_control_period_at_a_shorter_mujoc
             pass
 
 
-def test_the_stance_reading_is_the_touch_sensors_low_pass_in_both_engines(tmp_path):
+def test_the_stance_reading_is_the_touch_sensors_low_pass_in_mujoco_as_here():
     """``stance`` is each touch sensor's reading low-passed step by step (sensors.stance_update, a = dt / tau), from
-    its first reading on, here and in MuJoCo C's runner: checked on every control period of the trot's first 0.3 s,
-    whose feet land and lift, its policy reading both groups with weights of zero.  Ours is read from a recording at
-    one sample per step.  Tolerance: one float32 rounding here, none in MuJoCo C's float64."""
-    text = open("models/quadruped.wl").read()
-    assert "LogRate       20" in text
-    wl = tmp_path / "quadruped-500.wl"
-    wl.write_text(text.replace("LogRate       20", "LogRate       500"))   # a sample per 2 ms step
-    m = load_model(str(wl), pipeline="exact")
+    its first reading on, in MuJoCo C's runner as in our episode (episode/test_policy.py's touch test): checked on
+    every control period of the trot's first 0.3 s, whose feet land and lift, its policy reading both groups with
+    weights of zero.  Tolerance: none beyond float64's rounding."""
+    m = load_model("models/quadruped.wl", pipeline="exact")
     a = m.dt / sensors.STANCE_TAU
     c = read_ctl("models/quadruped-trot.ctl", n_dof=8, harmonics=2).coeffs.astype(np.float32)
     fam = pol.Family(inputs=("contact", "stance"))
     closed = pol.from_genomes(fam, m, np.concatenate([c.reshape(1, -1), np.zeros((1, fam.n_weights(m)))], 1))
-    from cpgjax.episode.batch import simulate
-
-    ours = np.asarray(simulate(m, closed, time=0.3, record=True)["traj"]["obs"])[:, :, 0]     # [S, 8]
-    _, _, _, theirs = mujoco_closed_run(m, closed, time=0.3, record=True)
-    for obs, tol in ((ours, 1e-6), (theirs[0], 1e-12)):
-        contact, stance = obs[:, :4], obs[:, 4:]
-        assert 0 < contact.mean() < 1 and np.abs(np.diff(contact, axis=0)).sum() >= 4, "the feet land and lift"
-        np.testing.assert_array_equal(stance[0], contact[0])
-        np.testing.assert_allclose(stance[1:], stance[:-1] + a * (contact[1:] - stance[:-1]), rtol=0, atol=tol)
-        assert ((stance > 0) & (stance < 1)).any()
+    _, _, _, obs = mujoco_closed_run(m, closed, time=0.3, record=True)
+    contact, stance = obs[0, :, :4], obs[0, :, 4:]
+    assert 0 < contact.mean() < 1 and np.abs(np.diff(contact, axis=0)).sum() >= 4, "the feet land and lift"
+    np.testing.assert_array_equal(stance[0], contact[0])
+    np.testing.assert_allclose(stance[1:], stance[:-1] + a * (contact[1:] - stance[:-1]), rtol=0, atol=1e-12)
+    assert ((stance > 0) & (stance < 1)).any()

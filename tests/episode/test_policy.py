@@ -6,6 +6,7 @@ import pytest
 from runcases import TINY_TIME
 
 from cpgjax.episode import policy as pol
+from cpgjax.episode import sensors
 from cpgjax.episode.batch import evaluate, simulate
 from cpgjax.episode.probes import Record
 from cpgjax.episode.rollout import rollout
@@ -83,7 +84,7 @@ def test_a_policy_of_zeros_is_the_open_loop_cpg_bit_for_bit_on_exact_joints():
 
 
 # the inputs, latency, batch width, thresholds' layout and recording of the two tests below: one compiled program
-LATENT = pol.Family(inputs=("tilt", "rates", "contact", "phase", "bias"))
+LATENT = pol.Family(inputs=("tilt", "rates", "contact", "stance", "phase", "bias"))
 
 
 def _recorded(m, c):
@@ -119,17 +120,27 @@ def test_the_touch_sensors_read_from_each_controllers_own_threshold_in_the_episo
     """``ClosedLoop.touch`` reaches the sensors in the scan: the recorded contact readings of 16 robots, one
     controller (zero weights: the trot), thresholds of 10 cm above the ground (every foot down: the trot lifts its feet
     less), 1 cm in (none: a foot carrying its share of the robot sinks 0.3 mm) and 0 (the sensors' own: with none
-    given they read from 0, episode/test_sensors.py).  The latency test's program."""
+    given they read from 0, episode/test_sensors.py), and their ``stance`` low-pass.  The latency test's program."""
     m = load_model(QUAD)
     g = np.concatenate([_trots(m, 1).reshape(1, -1), np.zeros((1, LATENT.n_weights(m)))], 1)
     at = np.repeat(np.float32([[-0.1], [0.01], [0.0], [0.0]]), 4, 1)        # [4 thresholds, legs]
     c = pol.from_genomes(LATENT, m, np.repeat(g, 16, 0).astype(np.float32), touch=np.tile(at, (4, 1)))
-    contact = slice(*np.cumsum([0] + [n for _, n in LATENT.input_sizes(m)])[[2, 3]])
-    obs = _recorded(m, c)[1]["obs"][:, contact]                              # [S, legs, robots]
+    edges = np.cumsum([0] + [n for _, n in LATENT.input_sizes(m)])
+    rec = _recorded(m, c)[1]["obs"]
+    obs, stance = rec[:, edges[2]:edges[3]], rec[:, edges[3]:edges[4]]      # [S, legs, robots]
     assert (obs[..., 0::4] == 1).all() and (obs[..., 1::4] == 0).all()
     assert 0 < obs[..., 2].mean() < 1                                       # the trot lifts its feet in turn
     np.testing.assert_array_equal(obs[..., 2::4], np.repeat(obs[..., 2:3], 4, -1))     # one controller: one episode
     np.testing.assert_array_equal(obs[..., 3::4], np.repeat(obs[..., 2:3], 4, -1))
+    # ``stance`` low-passes the same readings step by step (sensors.stance_update), from the first one on: MuJoCo C's
+    # runner does the same (crosscheck/test_engines.py).  Tolerance: one float32 rounding.
+    np.testing.assert_array_equal(stance[..., 0::4], 1.0)
+    np.testing.assert_array_equal(stance[..., 1::4], 0.0)
+    a = m.dt / sensors.STANCE_TAU
+    s, x = stance[..., 2], obs[..., 2]
+    assert np.abs(np.diff(x, axis=0)).sum() >= 2 and ((s > 0) & (s < 1)).any()     # feet land and lift
+    np.testing.assert_array_equal(s[0], x[0])
+    np.testing.assert_allclose(s[1:], s[:-1] + a * (x[1:] - s[:-1]), rtol=0, atol=1e-6)
 
 
 def test_the_genome_is_the_cpg_then_the_policy_genes_scaled():
