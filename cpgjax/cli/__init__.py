@@ -1,6 +1,6 @@
 """The ``cpgjax`` command line: :func:`build_parser` and :func:`main`.
 
-One module per command group, each with ``register(subparsers)``:
+One module per command group, each with ``register(subparsers)``, and each command's line in :data:`COMMANDS`:
 :mod:`~cpgjax.cli.simulate` (simulate, robustness), :mod:`~cpgjax.cli.tools` (bench, study-dt,
 study-friction), :mod:`~cpgjax.cli.crosscheck` (export, crosscheck, transfer), :mod:`~cpgjax.cli.agreement`
 (agreement), :mod:`~cpgjax.cli.render` (render), :mod:`~cpgjax.cli.evolve` (evolve, search, best, plot),
@@ -42,13 +42,49 @@ after G. Grasso's thesis (NJIT, 2000), and check them in MuJoCo.
   and error, IT&E), walking along a path by steering;
 - bench, study-dt, study-friction: speed and the simulator's numerical choices."""
 
-GROUPS = ("simulate", "tools", "crosscheck", "agreement", "render", "evolve", "sweep", "stability", "validation",
-          "repertoire")
+#: every command: its module (``register`` adds it) and its one-line help, in ``cpgjax --help``'s order.  Only the
+#: command being run is built in full (its module imported, and with it JAX): ``cpgjax --help`` lists the others
+#: from here.
+COMMANDS = {
+    "simulate": ("simulate", "run one episode of a model (and a .ctl controller)"),
+    "robustness": ("simulate", "replay a controller with its genes jittered: mean and spread of fitness"),
+    "bench": ("tools", "robot-steps/s and simulated robot-s per wall s at several batch sizes"),
+    "study-dt": ("tools", "the time-step stability study (docs/simulator.md)"),
+    "study-friction": ("tools", "the friction bristle: steadiness of the score vs agreement with MuJoCo C "
+                                "(docs/simulator.md)"),
+    "export": ("crosscheck", "write the model as MJCF for MuJoCo / MJX"),
+    "crosscheck": ("crosscheck", "the same controllers in the penalty simulator, MuJoCo C and MJX"),
+    "transfer": ("crosscheck", "do evolved gaits carry over? each run's best replayed in MuJoCo C (thesis Fig. "
+                               "6.3-6.4)"),
+    "agreement": ("agreement", "where the engines part on evolved gaits: each gait here and in MuJoCo C, its feet "
+                               "watched"),
+    "render": ("render", "draw an episode frame by frame to a video (.mp4 or .gif)"),
+    "evolve": ("evolve", "evolve controllers with the thesis's genetic algorithm"),
+    "search": ("evolve", "baseline search: random (Fig. 6.10), adaptive Monte Carlo (Fig. 6.11), or an evolution "
+                         "strategy of evosax (CMA-ES, OpenAI-ES, ...)"),
+    "best": ("evolve", "print the best controller of a run (and write it as a .ctl)"),
+    "plot": ("evolve", "fitness per generation of one or more runs (Fig. 6.5 style)"),
+    "sweep": ("sweep", "many GA / baseline runs (settings x seeds) batched into one XLA program"),
+    "report": ("sweep", "summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)"),
+    "notebook": ("sweep", "execute a notebook end to end (e.g. the thesis figures at a chosen scale)"),
+    "stability": ("stability", "stability under bumps and roughness of controllers or of evolved populations (thesis "
+                               "Figs. 6.13-6.21)"),
+    "servo": ("validation", "servo frequency response: tracking error vs frequency, sigmoid fit, cut-off (Figs. "
+                            "6.1-6.2)"),
+    "repertoire": ("repertoire", "a repertoire of gaits by MAP-Elites (quality-diversity; docs/repertoire.md)"),
+    "adapt": ("repertoire", "Intelligent Trial and Error: a damaged robot finds a gait of the repertoire by trial"),
+    "follow": ("repertoire", "walk a path: with a gait that reads a turning command (--ctl), or a repertoire's gaits"),
+    "repertoire-plot": ("repertoire", "a repertoire's heatmap, coverage and QD-score per evaluation"),
+}
+GROUPS = tuple(dict.fromkeys(g for g, _ in COMMANDS.values()))
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
 
-def build_parser() -> Parser:
+def build_parser(argv: list[str] | None = None) -> Parser:
+    """The ``cpgjax`` parser.  With ``argv``, only the command it names is built in full (the others: a name and
+    a line of help, :data:`COMMANDS`), so that ``cpgjax --help`` imports no command and no JAX; without, every
+    command."""
     import importlib
 
     p = Parser(prog="cpgjax", formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -59,14 +95,36 @@ def build_parser() -> Parser:
     p.add_argument("--version", action="version", version=f"cpgjax {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in GROUPS:
-        importlib.import_module(f"cpgjax.cli.{name}").register(sub)
+    # the command: the first word that is not an option (the top level's options take no value)
+    named = next((a for a in argv if not a.startswith("-")), None) if argv is not None else None
+    wanted = GROUPS if argv is None else [COMMANDS[named][0]] if named in COMMANDS else []
+    commands = _Commands(sub)
+    for group in GROUPS:
+        if group in wanted:
+            importlib.import_module(f"cpgjax.cli.{group}").register(commands)
+        else:
+            for name, (g, line) in COMMANDS.items():
+                if g == group:
+                    sub.add_parser(name, help=line)
     # a command's --help opens with what it does: its one-line help where no longer description was written
     for action in sub._choices_actions:
         cmd = sub.choices[action.dest]
         if not cmd.description:
             cmd.description = action.help[:1].upper() + action.help[1:] + "." if action.help else None
     return p
+
+
+class _Commands:
+    """The subparsers as a command module's ``register`` sees them: each command added with its line of
+    :data:`COMMANDS` as its help."""
+
+    def __init__(self, sub):
+        self._sub = sub
+
+    def add_parser(self, name: str, **kw):
+        if name not in COMMANDS:
+            raise KeyError(f"command {name!r} is not in cpgjax.cli.COMMANDS")
+        return self._sub.add_parser(name, help=COMMANDS[name][1], **kw)
 
 
 def _message(e: BaseException) -> str:
@@ -92,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
     """Run ``cpgjax ARGV``; returns the exit code (0 ok, 2 bad input, 130 interrupted)."""
     from cpgjax.errors import CpgjaxError
 
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(argv)
     try:
         args = parser.parse_args(argv)
     except SystemExit as e:        # --help, or a bad option (argparse printed one line)
@@ -101,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
         print("cpgjax: interrupted while starting (nothing was written)", file=sys.stderr)
         return EXIT_INTERRUPTED
     cmd = f"cpgjax {args.command}"
-    args.argv = list(sys.argv[1:] if argv is None else argv)     # for the hint after a Ctrl-C
+    args.argv = argv     # for the hint after a Ctrl-C
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt as e:

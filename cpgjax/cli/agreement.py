@@ -13,7 +13,7 @@ from cpgjax.cli import options as o
 
 def register(subparsers: Any) -> None:
     a = subparsers.add_parser(
-        "agreement", help="where the engines part on evolved gaits: each gait here and in MuJoCo C, its feet watched",
+        "agreement",
         description="Replay gaits of evolved runs once each, as they are, in our simulator and in MuJoCo C on the "
                     "same terrain, and tabulate per gait and engine: whether it fell, its speed, how deep its feet "
                     "go into the ground, how often a contact pushes sideways (normal more than 25 degrees from "

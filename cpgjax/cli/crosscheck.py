@@ -18,7 +18,7 @@ from cpgjax.episode.cpg import GENE_BOX
 
 
 def register(subparsers: Any) -> None:
-    e = subparsers.add_parser("export", help="write the model as MJCF for MuJoCo / MJX")
+    e = subparsers.add_parser("export")
     o.model_argument(e)
     e.add_argument("--out", help="the MJCF file written (.xml; default: beside the model, with .xml)")
     o.terrain_option(e)
@@ -33,7 +33,7 @@ def register(subparsers: Any) -> None:
                         "step) or mujoco (MuJoCo's default limit); docs/crosscheck.md, joint limits")
     e.set_defaults(func=cmd_export)
 
-    c = subparsers.add_parser("crosscheck", help="the same controllers in the penalty simulator, MuJoCo C and MJX")
+    c = subparsers.add_parser("crosscheck")
     o.model_argument(c)
     c.add_argument("--ctl", nargs="*", help="controller files (.ctl) to compare, besides the random and perturbed ones")
     c.add_argument("--controllers", nargs="*", metavar="RUN.h5",
@@ -68,7 +68,7 @@ def register(subparsers: Any) -> None:
     c.set_defaults(func=cmd_crosscheck)
 
     t = subparsers.add_parser(
-        "transfer", help="do evolved gaits carry over? each run's best replayed in MuJoCo C (thesis Fig. 6.3-6.4)",
+        "transfer",
         description="Replay the best controller of each run (RUN.h5 files, or every run of sweep folders) in our "
                     "simulator and in MuJoCo C, once and under jittered replays, on the terrain it was evolved on "
                     "(or --terrain's, in both engines); tabulate fitness and speed here vs there, their ratio, the "

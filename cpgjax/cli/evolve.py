@@ -69,7 +69,7 @@ def register(subparsers: Any) -> None:
         o.run_file_options(p)
         o.quiet_option(p)
 
-    p = subparsers.add_parser("evolve", help="evolve controllers with the thesis's genetic algorithm",
+    p = subparsers.add_parser("evolve",
                               description="Evolve controllers for a robot with the thesis's genetic algorithm "
                                           "(Ch. 4.3, 6.2): a population scored in simulation, the fitter ones "
                                           "duplicated (or crossed over) and mutated, generation after generation. "
@@ -111,8 +111,7 @@ def register(subparsers: Any) -> None:
                         f"(default {d.selection})")
     p.set_defaults(func=cmd_evolve)
 
-    p = subparsers.add_parser("search", help="baseline search: random (Fig. 6.10), adaptive Monte Carlo "
-                              "(Fig. 6.11), or an evolution strategy of evosax (CMA-ES, OpenAI-ES, ...)")
+    p = subparsers.add_parser("search")
     common(p, "search")
     p.add_argument("--method", choices=METHODS + es.METHODS, default=None,
                    help=f"random or amc (the thesis's baselines), or an evolution strategy of evosax: "
@@ -137,7 +136,7 @@ def register(subparsers: Any) -> None:
                    help=f"{' and '.join(es.GRADIENT)}: learning rate of optax.adam on the mean (default {e.lr:g})")
     p.set_defaults(func=cmd_search)
 
-    p = subparsers.add_parser("best", help="print the best controller of a run (and write it as a .ctl)")
+    p = subparsers.add_parser("best")
     p.add_argument("run", metavar="RUN.h5", help="a run file written by evolve or search")
     p.add_argument("--ctl", default=None, metavar="OUT.ctl", help="write the controller as a thesis .ctl file")
     p.add_argument("--round", action="store_true",
@@ -151,7 +150,7 @@ def register(subparsers: Any) -> None:
     o.pipeline_option(p, f"{o.RUN_PIPELINE}; --validate only")
     p.set_defaults(func=cmd_best)
 
-    p = subparsers.add_parser("plot", help="fitness per generation of one or more runs (Fig. 6.5 style)")
+    p = subparsers.add_parser("plot")
     p.add_argument("runs", nargs="+", metavar="RUN.h5", help="run files written by evolve, search or sweep")
     p.add_argument("--out", default=None, metavar="FIG.png", help="the figure file written (default: the first RUN's "
                                                                   "name with .png)")

@@ -26,7 +26,7 @@ fps = o.float_in(1.0, 120.0, what="frames per second in [1, 120]")
 
 def register(subparsers: Any) -> None:
     r = subparsers.add_parser(
-        "render", help="draw an episode frame by frame to a video (.mp4 or .gif)",
+        "render",
         description="Render one episode of our simulator (the exact recorded poses) with MuJoCo's renderer: the "
                     "terrain, the feet in contact (red dots) and a caption with time, distance and fitness. "
                     "MODEL is a .wl file (with --ctl) or a run file RUN.h5 (its best controller).")

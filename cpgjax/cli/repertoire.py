@@ -58,7 +58,7 @@ def register(subparsers: Any) -> None:
 
     d = MEConfig()
     p = subparsers.add_parser(
-        "repertoire", help="a repertoire of gaits by MAP-Elites (quality-diversity; docs/repertoire.md)",
+        "repertoire",
         description="Build a repertoire of gaits by MAP-Elites (quality-diversity; docs/glossary.md): the best "
                     "controller found for each cell of a grid of behaviour descriptors (each leg's duty factor, or "
                     "forward speed x turning rate), computed online in the episode; every evaluation is written to "
@@ -112,7 +112,7 @@ def register(subparsers: Any) -> None:
     a = ITEConfig()
 
     p = subparsers.add_parser(
-        "adapt", help="Intelligent Trial and Error: a damaged robot finds a gait of the repertoire by trial",
+        "adapt",
         description="Bayesian optimisation over a repertoire's elites (a Gaussian process over the descriptor, "
                     "the archive's fitness as its prior mean; Cully et al. 2015) on a damaged robot, which it only "
                     "observes through each trial's fitness.")
@@ -161,7 +161,7 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_adapt)
 
     p = subparsers.add_parser(
-        "follow", help="walk a path: with a gait that reads a turning command (--ctl), or a repertoire's gaits",
+        "follow",
         description="--ctl: the closed-loop gait alone walks each --path in one episode, the turning rate it reads "
                     "set every step from its own pose (the heading error to the next waypoint times --gain, "
                     "clipped to --limit; docs/closed-loop.md, Steering). --repertoire: every gait cycle the robot "
@@ -215,7 +215,7 @@ def register(subparsers: Any) -> None:
                    help="--ctl: draw every walk, a panel per controller and path, each engine's walk in it")
     p.set_defaults(func=cmd_follow)
 
-    p = subparsers.add_parser("repertoire-plot", help="a repertoire's heatmap, coverage and QD-score per evaluation")
+    p = subparsers.add_parser("repertoire-plot")
     p.add_argument("repertoire", metavar="REP.h5", help="a repertoire file written by cpgjax repertoire")
     p.add_argument("--out", default=None, metavar="FIG.png", help="the figure file written (default: REP's name with "
                                                                   ".png)")

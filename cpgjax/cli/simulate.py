@@ -13,7 +13,7 @@ from cpgjax.cli import options as o
 
 def register(subparsers: Any) -> None:
 
-    s = subparsers.add_parser("simulate", help="run one episode of a model (and a .ctl controller)")
+    s = subparsers.add_parser("simulate")
     o.model_argument(s)
     s.add_argument("--ctl", help="controller (.ctl); without it every servo holds angle 0")
     o.time_option(s, of=o.CTL_OR_FILE)
@@ -36,8 +36,7 @@ def register(subparsers: Any) -> None:
     mujoco_ground_option(s)
     s.set_defaults(func=cmd_simulate)
 
-    r = subparsers.add_parser("robustness",
-                              help="replay a controller with its genes jittered: mean and spread of fitness")
+    r = subparsers.add_parser("robustness")
     o.model_argument(r)
     r.add_argument("--ctl", required=True, help="the controller file (.ctl) replayed")
     r.add_argument("--n", type=o.count, default=64, help="replays at each --jitter value (default 64)")

@@ -32,8 +32,7 @@ def register(subparsers: Any) -> None:
     from cpgjax.experiments.stability import StabilityConfig
 
     d = StabilityConfig()
-    s = subparsers.add_parser("stability", help="stability under bumps and roughness of controllers or of "
-                                                "evolved populations (thesis Figs. 6.13-6.21)")
+    s = subparsers.add_parser("stability")
     s.add_argument("inputs", nargs="+", metavar="MODEL.wl | RUN.h5 | SWEEP_DIR",
                    help="a model with --ctl controllers, or run files / sweep folders (population study)")
     s.add_argument("--ctl", nargs="+", default=[], help="controllers (.ctl) to test on MODEL.wl")

@@ -68,7 +68,7 @@ def register(subparsers: Any) -> None:
 
     d, e = GAConfig(), ESConfig()
     p = subparsers.add_parser(
-        "sweep", help="many GA / baseline runs (settings x seeds) batched into one XLA program",
+        "sweep",
         description="Run every combination of the listed settings for every seed, batched into one jitted "
                     "program (one simulator call per generation for all runs); one HDF5 per run under "
                     "OUT/<cell>/s<seed>.h5; resumable (complete runs are skipped, partial ones continued).")
@@ -140,7 +140,7 @@ def register(subparsers: Any) -> None:
     o.quiet_option(p)
     p.set_defaults(func=cmd_sweep)
 
-    p = subparsers.add_parser("report", help="summary table of a sweep and the thesis's claims (Ch. 6.2-6.3)")
+    p = subparsers.add_parser("report")
     p.add_argument("sweep", metavar="runs/NAME/", help="a sweep folder written by cpgjax sweep")
     p.add_argument("--out", default=None, help="the markdown report written (default runs/NAME/report.md)")
     p.add_argument("--fig-6-12", default=None, metavar="FIG.png",
@@ -149,7 +149,7 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_report)
 
     p = subparsers.add_parser(
-        "notebook", help="execute a notebook end to end (e.g. the thesis figures at a chosen scale)",
+        "notebook",
         description="Run every cell of a notebook with this interpreter as its kernel and save it with its "
                     "outputs under runs/notebooks/ (the notebook in notebooks/ is left as it is unless --out names "
                     "it).  notebooks/thesis_figures.ipynb runs the sweep if its results are missing, then draws Fig. "

@@ -15,7 +15,7 @@ def register(subparsers: Any) -> None:
 
     model = o.default_model()
     batches = o.list_of(o.count, "expected batch sizes >= 1, e.g. 1,20,256")
-    b = subparsers.add_parser("bench", help="robot-steps/s and simulated robot-s per wall s at several batch sizes")
+    b = subparsers.add_parser("bench")
     o.model_argument(b, optional=True)
     b.add_argument("--batches", type=batches, default=None,
                    help=f"comma-separated batch sizes (default {','.join(map(str, DEFAULT_BATCHES))}; --against: "
@@ -45,7 +45,7 @@ def register(subparsers: Any) -> None:
                          "depend on it")
     b.set_defaults(func=cmd_bench)
 
-    d = subparsers.add_parser("study-dt", help="the time-step stability study (docs/simulator.md)")
+    d = subparsers.add_parser("study-dt")
     o.model_argument(d, optional=True)
     d.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
                    help="the walking controller (.ctl) run at every step size (default: the hand-written trot)")
@@ -57,8 +57,7 @@ def register(subparsers: Any) -> None:
     o.pipeline_option(d, o.CTL_PIPELINE)
     d.set_defaults(func=cmd_study_dt)
 
-    f = subparsers.add_parser("study-friction", help="the friction bristle: steadiness of the score vs agreement "
-                                                     "with MuJoCo C (docs/simulator.md)")
+    f = subparsers.add_parser("study-friction")
     o.model_argument(f, optional=True)
     f.add_argument("--ctl", default=os.path.join(os.path.dirname(model), "quadruped-trot.ctl"),
                    help="the controller (.ctl) replayed with its genes jittered (default: the hand-written trot)")

@@ -16,7 +16,7 @@ def register(subparsers: Any) -> None:
     freq = o.list_of(o.positive, "expected frequencies in Hz > 0, e.g. 0.5,1,2,4")
     amp = o.list_of(o.positive, "expected amplitudes in rad > 0, e.g. 0.1,0.2,0.4")
     p = subparsers.add_parser(
-        "servo", help="servo frequency response: tracking error vs frequency, sigmoid fit, cut-off (Figs. 6.1-6.2)",
+        "servo",
         description="One joint of the model on a rig (its first body welded to the world, the leg attached as in "
                     "the robot) follows sinusoids of every frequency x amplitude in one batch, in the penalty "
                     "simulator and in MuJoCo C; the relative mean absolute error vs frequency is fitted with the "

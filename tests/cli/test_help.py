@@ -102,3 +102,26 @@ def test_the_words_a_newcomer_asked_for():
     top = build_parser().format_help()
     for what in ("closed-loop", "MAP-Elites", "MuJoCo", "damaged", "steering"):
         assert what in top, what
+
+
+def test_cpgjax_help_imports_no_command_and_no_jax_and_lists_what_the_full_parser_lists(monkeypatch):
+    """``cpgjax --help`` builds only the names and lines of :data:`cpgjax.cli.COMMANDS` (JAX's import took 2-3 s
+    here): the same text as the parser of every command, and a command's own parser is the same when built alone."""
+    import os
+    import subprocess
+    import sys
+
+    from cpgjax.cli import COMMANDS as TABLE
+
+    monkeypatch.setenv("COLUMNS", "100")      # argparse's width, here and in the child, whatever the terminal
+
+    code = ("import sys; from cpgjax.cli import main; rc = main(['--help']); "
+            "print('JAX IMPORTED' if 'jax' in sys.modules else 'no jax', rc)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env=os.environ).stdout
+    assert out.endswith("no jax 0\n")
+    assert out[:-len("no jax 0\n")] == build_parser().format_help()
+    assert set(COMMANDS) == set(TABLE)
+    for name in ("evolve", "follow", "study-dt"):
+        alone = next(a for a in build_parser([name, "--help"])._actions if isinstance(a, argparse._SubParsersAction))
+        assert alone.choices[name].format_help() == COMMANDS[name].format_help()
