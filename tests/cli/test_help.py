@@ -122,6 +122,6 @@ def test_cpgjax_help_imports_no_command_and_no_jax_and_lists_what_the_full_parse
     assert out.endswith("no jax 0\n")
     assert out[:-len("no jax 0\n")] == build_parser().format_help()
     assert set(COMMANDS) == set(TABLE)
-    for name in ("evolve", "follow", "study-dt"):
+    for name in TABLE:
         alone = next(a for a in build_parser([name, "--help"])._actions if isinstance(a, argparse._SubParsersAction))
         assert alone.choices[name].format_help() == COMMANDS[name].format_help()
