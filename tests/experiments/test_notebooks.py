@@ -181,7 +181,7 @@ def test_repertoire_notebook_tiny(tmp_path):
     assert "trial 1: cell" in text
 
 
-def test_the_notebooks_in_the_repository_hold_no_outputs():
+def test_the_notebooks_in_the_repository_hold_no_outputs_and_every_cell_an_id():
     """notebooks/ holds the notebooks' source; `cpgjax notebook` saves executed copies under runs/notebooks/ and the
     figures and tables go to docs/ (outputs kept here would go stale with the code that made them)."""
     import json
@@ -191,3 +191,6 @@ def test_the_notebooks_in_the_repository_hold_no_outputs():
             nb = json.load(open(os.path.join(ROOT, "notebooks", name)))
             held = [i for i, c in enumerate(nb["cells"]) if c.get("outputs") or c.get("execution_count")]
             assert not held, f"notebooks/{name}: cells {held} hold outputs (clear them: the source only)"
+            # nbformat 4.5 gives every cell an id; nbformat warns of a missing one now, and will refuse it
+            bare = [i for i, c in enumerate(nb["cells"]) if "id" not in c]
+            assert not bare, f"notebooks/{name}: cells {bare} have no id (nbformat.validator.normalize adds them)"
