@@ -76,7 +76,6 @@ COMMANDS = {
     "follow": ("repertoire", "walk a path: with a gait that reads a turning command (--ctl), or a repertoire's gaits"),
     "repertoire-plot": ("repertoire", "a repertoire's heatmap, coverage and QD-score per evaluation"),
 }
-GROUPS = tuple(dict.fromkeys(g for g, _ in COMMANDS.values()))
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
@@ -95,17 +94,18 @@ def build_parser(argv: list[str] | None = None) -> Parser:
     p.add_argument("--version", action="version", version=f"cpgjax {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    # the command: the first word that is not an option (the top level's options take no value)
-    named = next((a for a in argv if not a.startswith("-")), None) if argv is not None else None
-    wanted = GROUPS if argv is None else [COMMANDS[named][0]] if named in COMMANDS else []
-    commands = _Commands(sub)
-    for group in GROUPS:
-        if group in wanted:
-            importlib.import_module(f"cpgjax.cli.{group}").register(commands)
-        else:
-            for name, (g, line) in COMMANDS.items():
-                if g == group:
-                    sub.add_parser(name, help=line)
+    if argv is None:
+        wanted = {group for group, _ in COMMANDS.values()}
+    else:       # the command: the first word that is not an option (the top level's options take no value)
+        named = next((a for a in argv if not a.startswith("-")), None)
+        wanted = {COMMANDS[named][0]} if named in COMMANDS else set()
+    registered: set[str] = set()
+    for name, (group, line) in COMMANDS.items():
+        if group not in wanted:
+            sub.add_parser(name, help=line)
+        elif group not in registered:       # the module adds its commands, in the table's order
+            importlib.import_module(f"cpgjax.cli.{group}").register(_Commands(sub))
+            registered.add(group)
     # a command's --help opens with what it does: its one-line help where no longer description was written
     for action in sub._choices_actions:
         cmd = sub.choices[action.dest]
